@@ -1,0 +1,190 @@
+"""The seven Olympic apparatus: FIG dimensions and the domain knowledge the tracker uses.
+
+Paper: Section III-C (the vertical plane the gymnast's centre keeps to) and III-D (performance
+space ``S_perf`` and the identification heights ``h_top``, ``h_bot`` of Eq. 13).
+
+World frame of every preset: origin on the floor under the apparatus centre, z up, the
+apparatus' long axis (beam, horse, runway, bars' rails; the bar itself for horizontal bar,
+uneven bars and rings) along world x.
+
+* Along-axis apparatus (balance beam, pommel horse, vault, parallel bars): the gymnast moves
+  along x, so the plane is ``y = 0`` (normal +y).
+* Across-axis apparatus (horizontal bar, uneven bars, still rings): the gymnast swings around
+  the bar, in the plane ``x = 0`` (normal +x) perpendicular to it.
+
+Dimensions follow the FIG Apparatus Norms as summarised in the foundation issue: beam 5 m long
+and 1.25 m high; pommel horse 1.15 m high and 1.6 m long; vault table 1.35 m (men) / 1.25 m
+(women) with a run-up of up to 25 m; rings 2.8 m above the floor, 0.5 m apart; horizontal bar
+2.8 m high and 2.4 m long; uneven bars 2.5 m and 1.7 m high, 1.3-1.8 m apart (diagonal);
+parallel bars 2.0 m high, 3.5 m long, rails 0.42-0.52 m apart.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Literal
+
+import numpy as np
+
+ApparatusName = Literal[
+    "balance_beam", "pommel_horse", "vault", "still_rings", "horizontal_bar", "uneven_bars", "parallel_bars"
+]
+APPARATUS_NAMES: tuple[str, ...] = (
+    "balance_beam",
+    "pommel_horse",
+    "vault",
+    "still_rings",
+    "horizontal_bar",
+    "uneven_bars",
+    "parallel_bars",
+)
+#: The paper's two-letter abbreviations (Table 3).
+ABBREVIATIONS = {
+    "balance_beam": "BB",
+    "pommel_horse": "PH",
+    "vault": "VT",
+    "still_rings": "SR",
+    "horizontal_bar": "HB",
+    "uneven_bars": "UB",
+    "parallel_bars": "PB",
+}
+
+
+@dataclass(frozen=True)
+class Bar:
+    """A cylindrical bar, rail or beam top edge: segment ``start``-``end`` (metres), ``radius``."""
+
+    start: tuple[float, float, float]
+    end: tuple[float, float, float]
+    radius: float = 0.02
+
+
+@dataclass(frozen=True)
+class Block:
+    """An axis-aligned solid block (beam body, horse, vault table): ``lo``/``hi`` corners."""
+
+    lo: tuple[float, float, float]
+    hi: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class Apparatus:
+    """Geometry and domain knowledge of one apparatus preset.
+
+    Attributes
+    ----------
+    name: one of :data:`APPARATUS_NAMES`.
+    performance_space: ``[xmin, ymin, zmin, xmax, ymax, zmax]``, the paper's ``S_perf``.
+    plane_point, plane_normal: the vertical plane the gymnast's centre keeps to.
+    h_top, h_bot: Eq. 13 identification heights of the body's top and bottom.
+    bars, blocks: solid parts (for drawing, occlusion and the simulator's motion).
+    along_axis: True if the gymnast travels along x in the plane ``y = 0``.
+    """
+
+    name: str
+    performance_space: tuple[float, float, float, float, float, float]
+    plane_point: tuple[float, float, float]
+    plane_normal: tuple[float, float, float]
+    h_top: float
+    h_bot: float
+    along_axis: bool
+    bars: tuple[Bar, ...] = field(default_factory=tuple)
+    blocks: tuple[Block, ...] = field(default_factory=tuple)
+
+    @property
+    def abbreviation(self) -> str:
+        return ABBREVIATIONS[self.name]
+
+    @property
+    def centre(self) -> np.ndarray:
+        s = np.asarray(self.performance_space)
+        return np.array([(s[0] + s[3]) / 2, (s[1] + s[4]) / 2, 1.2])
+
+
+# FIG numbers used below, named once.
+BEAM_LENGTH, BEAM_HEIGHT, BEAM_WIDTH = 5.0, 1.25, 0.10
+HORSE_LENGTH, HORSE_HEIGHT, HORSE_WIDTH, POMMEL_HEIGHT, POMMEL_SPACING = 1.6, 1.15, 0.35, 0.12, 0.45
+VAULT_TABLE_HEIGHT_MEN, VAULT_TABLE_HEIGHT_WOMEN, VAULT_RUNUP = 1.35, 1.25, 25.0
+VAULT_TABLE_LENGTH, VAULT_TABLE_WIDTH = 1.2, 0.95
+RINGS_HEIGHT, RINGS_SPACING = 2.8, 0.5
+HIGH_BAR_HEIGHT, HIGH_BAR_LENGTH = 2.8, 2.4
+UNEVEN_HIGH, UNEVEN_LOW, UNEVEN_LENGTH = 2.5, 1.7, 2.4
+UNEVEN_HORIZONTAL_GAP = 1.5  # gives a 1.70 m diagonal, inside FIG's 1.3-1.8 m
+PARALLEL_HEIGHT, PARALLEL_LENGTH, PARALLEL_SPACING = 2.0, 3.5, 0.47
+
+
+def _presets() -> dict[str, Apparatus]:
+    along = (0.0, 1.0, 0.0)
+    across = (1.0, 0.0, 0.0)
+    origin = (0.0, 0.0, 0.0)
+    hb, hl = BEAM_LENGTH / 2, HORSE_LENGTH / 2
+    ug = UNEVEN_HORIZONTAL_GAP / 2
+    pl, ps = PARALLEL_LENGTH / 2, PARALLEL_SPACING / 2
+    return {
+        "balance_beam": Apparatus(
+            "balance_beam",
+            (-hb - 1.5, -1.0, 0.0, hb + 1.5, 1.0, 4.5),
+            origin, along, h_top=2.0, h_bot=0.6, along_axis=True,
+            bars=(Bar((-hb, 0, BEAM_HEIGHT), (hb, 0, BEAM_HEIGHT), BEAM_WIDTH / 2),),
+            blocks=(Block((-hb, -BEAM_WIDTH / 2, BEAM_HEIGHT - 0.16), (hb, BEAM_WIDTH / 2, BEAM_HEIGHT)),),
+        ),
+        "pommel_horse": Apparatus(
+            "pommel_horse",
+            (-hl - 1.0, -1.2, 0.0, hl + 1.0, 1.2, 3.2),
+            origin, along, h_top=1.5, h_bot=0.6, along_axis=True,
+            bars=tuple(
+                Bar((x, -0.07, HORSE_HEIGHT), (x, 0.07, HORSE_HEIGHT), 0.015)
+                for x in (-POMMEL_SPACING / 2, POMMEL_SPACING / 2)
+            ),
+            blocks=(Block((-hl, -HORSE_WIDTH / 2, HORSE_HEIGHT - POMMEL_HEIGHT - 0.35), (hl, HORSE_WIDTH / 2, HORSE_HEIGHT - POMMEL_HEIGHT)),),
+        ),
+        "vault": Apparatus(
+            "vault",
+            (-VAULT_RUNUP - 1.0, -1.5, 0.0, 5.0, 1.5, 4.5),
+            origin, along, h_top=2.0, h_bot=0.4, along_axis=True,
+            blocks=(
+                Block(
+                    (-VAULT_TABLE_LENGTH / 2, -VAULT_TABLE_WIDTH / 2, VAULT_TABLE_HEIGHT_MEN - 0.25),
+                    (VAULT_TABLE_LENGTH / 2, VAULT_TABLE_WIDTH / 2, VAULT_TABLE_HEIGHT_MEN),
+                ),
+            ),
+        ),
+        "still_rings": Apparatus(
+            "still_rings",
+            (-1.5, -2.0, 0.0, 1.5, 2.0, 5.0),
+            origin, across, h_top=2.0, h_bot=0.6, along_axis=False,
+            bars=tuple(Bar((x, 0, RINGS_HEIGHT), (x, 0, RINGS_HEIGHT + 0.18), 0.09) for x in (-RINGS_SPACING / 2, RINGS_SPACING / 2)),
+        ),
+        "horizontal_bar": Apparatus(
+            "horizontal_bar",
+            (-1.5, -2.5, 0.0, 1.5, 2.5, 5.0),
+            origin, across, h_top=2.0, h_bot=0.6, along_axis=False,
+            bars=(Bar((-HIGH_BAR_LENGTH / 2, 0, HIGH_BAR_HEIGHT), (HIGH_BAR_LENGTH / 2, 0, HIGH_BAR_HEIGHT), 0.014),),
+        ),
+        "uneven_bars": Apparatus(
+            "uneven_bars",
+            (-1.5, -2.8, 0.0, 1.5, 2.8, 4.5),
+            origin, across, h_top=2.0, h_bot=0.6, along_axis=False,
+            bars=(
+                Bar((-UNEVEN_LENGTH / 2, -ug, UNEVEN_LOW), (UNEVEN_LENGTH / 2, -ug, UNEVEN_LOW), 0.02),
+                Bar((-UNEVEN_LENGTH / 2, ug, UNEVEN_HIGH), (UNEVEN_LENGTH / 2, ug, UNEVEN_HIGH), 0.02),
+            ),
+        ),
+        "parallel_bars": Apparatus(
+            "parallel_bars",
+            (-pl - 1.0, -1.2, 0.0, pl + 1.0, 1.2, 4.5),
+            origin, along, h_top=2.0, h_bot=0.6, along_axis=True,
+            bars=tuple(Bar((-pl, y, PARALLEL_HEIGHT), (pl, y, PARALLEL_HEIGHT), 0.025) for y in (-ps, ps)),
+        ),
+    }
+
+
+PRESETS: dict[str, Apparatus] = _presets()
+
+
+def get_apparatus(name: str) -> Apparatus:
+    """The preset called ``name``; raises ``KeyError`` listing the valid names."""
+    try:
+        return PRESETS[name]
+    except KeyError:
+        raise KeyError(f"unknown apparatus {name!r}; choose one of {', '.join(APPARATUS_NAMES)}") from None

@@ -1,0 +1,1 @@
+"""gymtrack CLI: info commands."""
