@@ -18,6 +18,7 @@ from typing import Iterable, Iterator, Sequence
 
 import cv2
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from ..errors import CalibrationError
 
@@ -119,7 +120,8 @@ class Camera:
     @property
     def rvec(self) -> np.ndarray:
         """(3,) Rodrigues vector of ``R``."""
-        return cv2.Rodrigues(self.R)[0].ravel()
+        # not cv2.Rodrigues: it returns 0 for rotations below 1e-5 rad
+        return Rotation.from_matrix(self.R).as_rotvec()
 
     # ----------------------------------------------------------------- operations
     def to_camera(self, X: np.ndarray) -> np.ndarray:

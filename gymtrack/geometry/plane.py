@@ -23,7 +23,7 @@ class RayPlaneStatus(IntEnum):
     """Outcome of one ray-plane intersection."""
 
     OK = 0
-    PARALLEL = 1  #: |cos| between ray and plane normal below the tolerance
+    PARALLEL = 1  #: |cos| between ray and plane normal below the tolerance (or no direction: zero/NaN)
     BEHIND = 2  #: the plane is hit behind the ray origin
 
 
@@ -86,11 +86,12 @@ def intersect_rays_plane(
     o, d = np.broadcast_arrays(o, d)
     dn = d @ plane.normal
     dlen = np.linalg.norm(d, axis=-1)
-    parallel = np.abs(dn) < min_cos * dlen
+    # written negated so that zero-length and NaN directions count as parallel (no intersection)
+    parallel = ~(np.abs(dn) >= min_cos * dlen) | ~(dlen > 0)
     with np.errstate(divide="ignore", invalid="ignore"):
         lam = ((plane.point - o) @ plane.normal) / dn
+        X = o + lam[..., None] * d  # inf * 0 for exactly parallel rays: masked below
     behind = ~parallel & ~(lam > 0)
     status = np.where(parallel, RayPlaneStatus.PARALLEL, np.where(behind, RayPlaneStatus.BEHIND, RayPlaneStatus.OK)).astype(np.int8)
-    X = o + lam[..., None] * d
     X[status != RayPlaneStatus.OK] = np.nan
     return X, status

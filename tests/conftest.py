@@ -1,0 +1,151 @@
+"""Shared test fixtures: a seeded random generator and realistic random cameras.
+
+The camera factory places cameras the way a gym rig is set up: 8-18 m from a region of
+interest (the performance space around the world origin, z up), 2-7 m high, looking at a
+point inside the region with a small roll, 1920x1080 images, focal lengths that keep the
+region in view, and (optionally) realistic lens distortion with 5 or 8 OpenCV coefficients.
+Distortion is rejection-sampled so the radial map stays monotonic a margin beyond the image
+corners, as every real calibration does (otherwise undistortion has no unique answer).
+
+The factories are session-scoped fixtures returning plain functions that take a
+``numpy.random.Generator``, so hypothesis tests (which must not use function-scoped
+fixtures) can call them with a generator seeded from a drawn integer.
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+import pytest
+
+from gymtrack.geometry import Camera, Rig
+
+SIZE = (1920, 1080)
+#: the region the random cameras look at: [xmin, ymin, zmin, xmax, ymax, zmax], metres
+REGION = np.array([-4.0, -3.0, 0.0, 4.0, 3.0, 2.5])
+
+
+def look_at(centre: np.ndarray, target: np.ndarray, roll: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """(R, t) of a camera at ``centre`` (3,) looking at ``target`` (3,), world z up.
+
+    Camera axes: x right, y down, z forward; ``roll`` (radians) turns the camera about its axis.
+    """
+    z = np.asarray(target, float) - np.asarray(centre, float)
+    z /= np.linalg.norm(z)
+    x = np.cross(z, [0.0, 0.0, 1.0])
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    R = np.stack([x, y, z])
+    c, s = np.cos(roll), np.sin(roll)
+    R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ R
+    return R, -R @ np.asarray(centre, float)
+
+
+def radial_is_monotonic(dist: np.ndarray, r_max: float, min_slope: float = 0.3) -> bool:
+    """True when ``r -> r * radial(r)`` of OpenCV's model has slope >= ``min_slope`` on [0, r_max]."""
+    d = np.zeros(8)
+    d[: len(dist)] = dist
+    k1, k2, _, _, k3, k4, k5, k6 = d
+    r = np.linspace(0.0, r_max, 400)
+    r2 = r * r
+    rd = r * (1 + k1 * r2 + k2 * r2**2 + k3 * r2**3) / (1 + k4 * r2 + k5 * r2**2 + k6 * r2**3)
+    slope = np.gradient(rd, r)
+    return bool(np.all(slope >= min_slope) and np.all(1 + k4 * r2 + k5 * r2**2 + k6 * r2**3 > 0.3))
+
+
+def random_distortion(rng: np.random.Generator, ncoef: int, r_max: float) -> np.ndarray:
+    """Realistic OpenCV distortion with ``ncoef`` in (4, 5, 8) coefficients, monotonic to ``r_max``."""
+    for _ in range(1000):
+        k1 = rng.uniform(-0.35, 0.15)
+        k2 = rng.uniform(-0.05, 0.15)
+        p1, p2 = rng.uniform(-1.5e-3, 1.5e-3, size=2)
+        k3 = rng.uniform(-0.03, 0.03)
+        d = [k1, k2, p1, p2, k3]
+        if ncoef == 8:
+            d += list(rng.uniform(-0.1, 0.1, size=3))
+        d = np.array(d[:ncoef])
+        if radial_is_monotonic(d, r_max):
+            return d
+    raise RuntimeError("could not draw a monotonic distortion")  # pragma: no cover
+
+
+def random_camera(
+    rng: np.random.Generator,
+    name: str = "cam0",
+    distortion: int | None = None,
+    azimuth: float | None = None,
+) -> Camera:
+    """A realistic camera looking at :data:`REGION`.
+
+    distortion: None (no distortion), 4, 5 or 8 OpenCV coefficients.
+    azimuth: direction (radians) of the camera from the region centre; random if None.
+    """
+    az = rng.uniform(0, 2 * np.pi) if azimuth is None else azimuth
+    dist_xy = rng.uniform(8.0, 18.0)
+    centre = np.array([dist_xy * np.cos(az), dist_xy * np.sin(az), rng.uniform(2.0, 7.0)])
+    target = np.array([rng.uniform(-1.5, 1.5), rng.uniform(-1.0, 1.0), rng.uniform(0.5, 1.5)])
+    R, t = look_at(centre, target, roll=rng.uniform(-0.05, 0.05))
+    f = rng.uniform(1100.0, 2000.0)
+    w, h = SIZE
+    K = np.array(
+        [[f, 0.0, w / 2 + rng.uniform(-20, 20)], [0.0, f * rng.uniform(0.995, 1.005), h / 2 + rng.uniform(-20, 20)], [0.0, 0.0, 1.0]]
+    )
+    if distortion is None:
+        dist = np.zeros(5)
+    else:
+        # normalised radius of the farthest image corner, plus a margin
+        r_corner = np.hypot(max(K[0, 2], w - K[0, 2]) / K[0, 0], max(K[1, 2], h - K[1, 2]) / K[1, 1])
+        dist = random_distortion(rng, distortion, 1.3 * r_corner)
+    return Camera(name, SIZE, K, R, t, dist)
+
+
+def random_rig(rng: np.random.Generator, n: int = 4, distortion: int | None = None) -> Rig:
+    """``n`` cameras spread around :data:`REGION` (azimuths jittered around even spacing)."""
+    az0 = rng.uniform(0, 2 * np.pi)
+    cams = [
+        random_camera(rng, f"cam{i}", distortion, az0 + 2 * np.pi * i / n + rng.uniform(-0.3, 0.3)) for i in range(n)
+    ]
+    return Rig(cams)
+
+
+def random_points(rng: np.random.Generator, n: int) -> np.ndarray:
+    """(n, 3) points uniform in :data:`REGION`."""
+    return rng.uniform(REGION[:3], REGION[3:], size=(n, 3))
+
+
+def points_seen_by(rng: np.random.Generator, cams, n: int, margin: float = 0.0) -> np.ndarray:
+    """(n, 3) points of :data:`REGION` in front of every camera and inside every image (raw pixels)."""
+    out = []
+    while sum(len(o) for o in out) < n:
+        X = random_points(rng, 4 * n)
+        ok = np.ones(len(X), bool)
+        for cam in cams:
+            uv = cam.project(X)
+            ok &= (cam.depth(X) > 0.1) & cam.in_image(uv, margin=-margin)
+        out.append(X[ok])
+    return np.concatenate(out)[:n]
+
+
+@pytest.fixture
+def rng() -> np.random.Generator:
+    """A seeded generator: every test run sees the same random cameras and points."""
+    return np.random.default_rng(20240607)
+
+
+@pytest.fixture(scope="session")
+def make_camera() -> Callable[..., Camera]:
+    """``make_camera(rng, name="cam0", distortion=None|4|5|8, azimuth=None) -> Camera``."""
+    return random_camera
+
+
+@pytest.fixture(scope="session")
+def make_rig() -> Callable[..., Rig]:
+    """``make_rig(rng, n=4, distortion=None|4|5|8) -> Rig``."""
+    return random_rig
+
+
+@pytest.fixture(scope="session")
+def make_points() -> Callable[..., np.ndarray]:
+    """``make_points(rng, cams, n, margin=0) -> (n, 3)`` points seen by every camera of ``cams``."""
+    return points_seen_by
