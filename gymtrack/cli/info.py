@@ -1,1 +1,147 @@
-"""gymtrack CLI: info commands."""
+"""``gymtrack info <routine>``: check a routine folder and show what the tracker will work with.
+
+Paper: summarises the inputs of Section III: the calibrated views (``P_c``, III-B), the opposite
+view pairs whose line-of-sight angle makes triangulation ill-conditioned and calls for the
+ray-plane intersection (III-C), the per-view boxes (III-A) and the domain knowledge of the scene
+(performance space, buffer, planes, identification heights ``h_top`` / ``h_bot``, parameters).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from gymtrack.cli import app
+from gymtrack.formats.routine import Routine, load_routine
+from gymtrack.formats.scene import Scene
+from gymtrack.geometry.camera import Rig
+
+
+def _vec(v, fmt: str = "{:+.2f}") -> str:
+    return "(" + ", ".join(fmt.format(float(x)) for x in v) + ")"
+
+
+def cameras_table(rig: Rig) -> Table:
+    """One row per camera: size, centre, viewing direction (azimuth and tilt of the optical axis),
+    focal length, distortion."""
+    t = Table(title=f"Cameras ({len(rig)})", title_justify="left")
+    t.add_column("#", justify="right")
+    t.add_column("name", no_wrap=True)
+    t.add_column("size", no_wrap=True)
+    t.add_column("centre (m)", no_wrap=True)
+    t.add_column("looks (az, tilt)", no_wrap=True)
+    t.add_column("f (px)", justify="right")
+    t.add_column("dist.")
+    for i, c in enumerate(rig):
+        d = c.optical_axis
+        az = float(np.degrees(np.arctan2(d[1], d[0])))
+        tilt = float(np.degrees(np.arcsin(np.clip(d[2], -1, 1))))  # negative = looking down
+        f = 0.5 * (c.K[0, 0] + c.K[1, 1])
+        t.add_row(
+            str(i), c.name, f"{c.size[0]}x{c.size[1]}", _vec(c.centre, "{:.1f}"), f"{az:+.0f}, {tilt:+.0f} deg",
+            f"{f:.0f}", "yes" if c.has_distortion else "no",
+        )
+    return t
+
+
+def opposite_table(rig: Rig, scene: Scene) -> Table:
+    """Camera pairs whose lines of sight meet at the performance-space centre at more than
+    ``params.opposite_angle_deg`` (the pairs the ray-plane fallback is for)."""
+    from gymtrack.geometry.views import pairwise_angles
+
+    s = np.asarray(scene.performance_space, dtype=np.float64)
+    centre = (s[:3] + s[3:]) / 2
+    thr = scene.params.opposite_angle_deg
+    ang = pairwise_angles(rig, centre)
+    t = Table(
+        title=f"Opposite camera pairs: line-of-sight angle > {thr:g} deg at the performance-space centre "
+        f"{_vec(centre, '{:.2f}')}",
+        title_justify="left", min_width=60,
+    )
+    t.add_column("camera a", no_wrap=True)
+    t.add_column("camera b", no_wrap=True)
+    t.add_column("angle", justify="right")
+    iu, ju = np.triu_indices(len(rig), k=1)
+    sel = ang[iu, ju] > thr
+    for i, j in zip(iu[sel], ju[sel]):
+        t.add_row(rig[int(i)].name, rig[int(j)].name, f"{ang[i, j]:.1f} deg")
+    if not sel.any():
+        t.add_row("(none)", "", "")
+    return t
+
+
+def detections_table(routine: Routine) -> Table:
+    """Per camera: boxes, frames, frame range, out-of-order lines, frame-0 lines, skipped lines."""
+    t = Table(title=f"Detections ({len(routine.detections)} boxes)", title_justify="left")
+    t.add_column("camera", no_wrap=True)
+    for col in ("boxes", "frames", "frame range", "unsorted", "frame 0"):
+        t.add_column(col, justify="right")
+    t.add_column("skipped")
+    for r in routine.reports:
+        rng = f"{r.frame_range[0]}..{r.frame_range[1]}" if r.frame_range else "-"
+        skipped = ", ".join(f"{k}: {v}" for k, v in r.skipped.items()) or "-"
+        t.add_row(r.camera, str(r.boxes), str(r.frames), rng, str(r.unsorted_lines), str(r.frame_zero_lines), skipped)
+    return t
+
+
+def scene_table(scene: Scene) -> Table:
+    """The domain knowledge: apparatus, spaces, planes, target heights, parameters."""
+    t = Table(title="Scene", title_justify="left", show_header=False)
+    t.add_column("key", style="bold")
+    t.add_column("value")
+    t.add_row("apparatus", scene.apparatus or "(none: custom scene)")
+    t.add_row("fps", f"{scene.fps:g}")
+    t.add_row("performance space (m)", _vec(scene.performance_space[:3], "{:.2f}") + " .. " + _vec(scene.performance_space[3:], "{:.2f}"))
+    ts = scene.tracking_space
+    t.add_row(f"tracking space (buffer {scene.buffer:g} m)", _vec(ts[:3], "{:.2f}") + " .. " + _vec(ts[3:], "{:.2f}"))
+    if scene.planes:
+        for k, p in enumerate(scene.planes):
+            t.add_row(f"plane {k}", f"point {_vec(p.point, '{:.2f}')}, normal {_vec(p.normal, '{:+.2f}')}"
+                      + ("" if p.is_vertical else "  (not vertical)"))
+    else:
+        t.add_row("planes", "(none)")
+    t.add_row("target h_top / h_bot", f"{scene.target.h_top:g} m / {scene.target.h_bot:g} m")
+    t.add_row("params", ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in scene.params.model_dump().items()))
+    return t
+
+
+def print_routine_info(routine: Routine, console: Console | None = None) -> None:
+    """Print every table of ``gymtrack info`` for a loaded routine."""
+    console = console or Console()
+    rep = routine.calibration_report
+    console.print(f"[bold]Routine[/] {routine.path}")
+    console.print(f"calibration: {routine.calibration_path.name} ({rep.format}, translations in {rep.units})", highlight=False)
+    for reason, n in rep.skipped.items():
+        console.print(f"  left out {n} camera(s): {reason}", highlight=False)
+    for note in rep.notes:
+        console.print(f"  note: {note}", highlight=False)
+    console.print(cameras_table(routine.rig))
+    console.print(opposite_table(routine.rig, routine.scene))
+    console.print(detections_table(routine))
+    if routine.ignored:
+        console.print(f"ignored in detections/ (not .txt): {', '.join(p.name for p in routine.ignored)}", highlight=False)
+    console.print(scene_table(routine.scene))
+    if routine.has_gt:
+        have = ", ".join(routine.gt) or "no known files"
+        console.print(f"ground truth: gt/ ({have})", highlight=False)
+    else:
+        console.print("ground truth: none", highlight=False)
+
+
+@app.command()
+def info(
+    routine: Path = typer.Argument(..., help="routine folder (cameras.yaml, scene.yaml, detections/<camera>.txt)"),
+    calibration_format: Optional[str] = typer.Option(
+        None, "--calibration-format", help="native | anipose | easymocap | panoptic | wildtrack (default: from the file name)"
+    ),
+    units: Optional[str] = typer.Option(None, "--units", help="units of an aniposelib / EasyMocap calibration: m | cm | mm"),
+) -> None:
+    """Validate a routine folder and show its cameras, opposite pairs, detections and scene."""
+    opts = {} if units is None else {"units": units}
+    r = load_routine(routine, calibration_format, **opts)
+    print_routine_info(r)

@@ -1,0 +1,143 @@
+"""A routine folder: calibration + scene + one detection file per camera, checked together.
+
+Paper: the inputs of the whole pipeline (Section III): synchronised multi-camera boxes
+(III-A), the calibrated projection matrices (III-B) and the gymnastics domain knowledge
+(performance space, vertical plane, identification heights; III-B to III-D). Layout
+(``shared/formats.md``)::
+
+    <routine>/
+      cameras.yaml            (or any calibration gymtrack reads, see formats.calibration)
+      scene.yaml
+      detections/<camera>.txt one MOTChallenge file per camera, named after the camera
+      keypoints/, videos/     optional
+      gt/                     optional ground truth (persons_3d.csv, boxes_2d/, keypoints_3d.csv)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..detections import Detections
+from ..errors import RoutineError
+from ..geometry.camera import Rig
+from .calibration import CalibrationReport, find_calibration, read_calibration
+from .motchallenge import ReadReport, read_detections
+from .scene import Scene, load_scene
+
+#: Ground-truth files the simulator writes under ``gt/`` (key -> relative path).
+GT_FILES: dict[str, str] = {
+    "persons_3d": "persons_3d.csv",
+    "boxes_2d": "boxes_2d",
+    "keypoints_3d": "keypoints_3d.csv",
+}
+
+
+@dataclass(frozen=True, eq=False)
+class Routine:
+    """A validated routine folder.
+
+    Attributes
+    ----------
+    path: the folder.
+    rig: the cameras, in calibration order (the camera index of every array).
+    scene: the validated ``scene.yaml``.
+    detections: boxes of all cameras, sorted by (frame, camera); ``camera`` indexes ``rig``.
+    reports: one :class:`ReadReport` per camera, rig order.
+    calibration_path: the calibration file or folder read.
+    calibration_report: what reading the calibration left out or guessed.
+    has_gt: the folder has a ``gt/`` sub-folder.
+    gt: key of :data:`GT_FILES` -> path, for the ground-truth files present.
+    ignored: files in ``detections/`` that are not ``.txt`` (listed, not read).
+    """
+
+    path: Path
+    rig: Rig
+    scene: Scene
+    detections: Detections
+    reports: tuple[ReadReport, ...]
+    calibration_path: Path
+    calibration_report: CalibrationReport
+    has_gt: bool = False
+    gt: dict[str, Path] = field(default_factory=dict)
+    ignored: tuple[Path, ...] = ()
+
+    @property
+    def camera_names(self) -> tuple[str, ...]:
+        return self.rig.names
+
+    def detection_path(self, camera: str) -> Path:
+        return self.path / "detections" / f"{camera}.txt"
+
+    def gt_boxes_path(self, camera: str) -> Path | None:
+        """``gt/boxes_2d/<camera>.txt`` when present."""
+        p = self.path / "gt" / "boxes_2d" / f"{camera}.txt"
+        return p if p.is_file() else None
+
+
+def load_routine(path: str | Path, calibration_format: str | None = None, **calibration_options) -> Routine:
+    """Read and cross-check a routine folder.
+
+    Parameters
+    ----------
+    path: the routine folder.
+    calibration_format, calibration_options: passed to
+        :func:`~gymtrack.formats.calibration.read_calibration` (e.g. ``units="mm"`` for a
+        ``calibration.toml``).
+
+    Raises RoutineError (naming the file or camera and saying how to fix it) for: a missing
+    folder, scene.yaml, calibration or ``detections/``; a detection file whose camera the
+    calibration lacks; a calibration camera with no detection file. Errors inside a file
+    (calibration, scene, detections) come as that file's own error type.
+    """
+    path = Path(path)
+    if not path.is_dir():
+        raise RoutineError("routine folder not found", source=path)
+    scene_path = path / "scene.yaml"
+    if not scene_path.is_file():
+        raise RoutineError(
+            "missing scene.yaml: write one with at least 'apparatus: <preset>' or 'performance_space' (see shared/formats.md)",
+            source=scene_path,
+        )
+    calib_path = find_calibration(path, error=RoutineError)
+    rig, calib_report = read_calibration(calib_path, calibration_format, **calibration_options)
+    scene = load_scene(scene_path)
+
+    det_dir = path / "detections"
+    if not det_dir.is_dir():
+        raise RoutineError(
+            f"missing detections/ folder: add one MOTChallenge file per camera ({', '.join(n + '.txt' for n in rig.names)})",
+            source=det_dir,
+        )
+    files = sorted(p for p in det_dir.iterdir() if p.is_file())
+    txt = {p.stem: p for p in files if p.suffix == ".txt"}
+    ignored = tuple(p for p in files if p.suffix != ".txt")
+    for stem, p in txt.items():
+        if stem not in rig.names:
+            raise RoutineError(
+                f"detection file for camera {stem!r}, which the calibration ({calib_path.name}) does not have; "
+                f"its cameras are {', '.join(rig.names)}: rename or remove the file",
+                source=p,
+            )
+    missing = [n for n in rig.names if n not in txt]
+    if missing:
+        raise RoutineError(
+            f"camera {missing[0]!r} of the calibration has no detection file detections/{missing[0]}.txt"
+            + (f" (nor do {', '.join(missing[1:])})" if len(missing) > 1 else "")
+            + "; if the camera saw nothing, add an empty file",
+            source=det_dir, field=missing[0],
+        )
+    parts, reports = [], []
+    for i, name in enumerate(rig.names):
+        d, r = read_detections(txt[name], i, rig.names)
+        parts.append(d)
+        reports.append(r)
+    detections = Detections.concat(parts).sorted()
+
+    gt_dir = path / "gt"
+    gt = {k: gt_dir / rel for k, rel in GT_FILES.items() if (gt_dir / rel).exists()}
+    return Routine(
+        path=path, rig=rig, scene=scene, detections=detections, reports=tuple(reports),
+        calibration_path=calib_path, calibration_report=calib_report, has_gt=gt_dir.is_dir(), gt=gt, ignored=ignored,
+    )
+
