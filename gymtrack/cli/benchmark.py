@@ -1,1 +1,118 @@
-"""gymtrack CLI: benchmark commands."""
+"""``gymtrack benchmark``: every method on every routine of a suite; the paper's Tables 3, 5, 6, Fig. 6.
+
+``gymtrack benchmark --suite <dir> --out <dir> [--jobs N] [--methods cascade,triangulation,...]``
+runs the methods of :mod:`gymtrack.eval.benchmark` on every routine of the suite (routines in
+parallel processes), prints the summary tables with rich and writes ``report.md``, CSV, JSON
+and the Fig. 6 plots under ``--out``, plus the WILDTRACK section when the data is there.
+
+Without ``--suite`` it first simulates the default suite into ``<out>/suite`` -- the same
+routines as ``gymtrack simulate-suite --per-apparatus 2 --seconds 25``: 7 apparatus x 2
+performances x n_cam 2, 3, 4 = 42 routine folders, apparatus simulated in parallel -- unless
+``<out>/suite/suite.json`` already exists, and benchmarks that. ``--per-apparatus 20 --seconds 0``
+gives the paper's 140 performances (each seen with n_cam = 2, 3 and 4) at the simulator's lengths.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from gymtrack.cli import app
+
+console = Console()
+
+
+def _methods(text: str) -> list[str]:
+    from gymtrack.errors import InputError
+    from gymtrack.eval.report import METHODS
+
+    out = [m.strip() for m in text.replace(" ", ",").split(",") if m.strip()]
+    bad = [m for m in out if m not in METHODS]
+    if bad or not out:
+        raise InputError(f"unknown method {bad[0] if bad else text!r}; choose from {', '.join(METHODS)}", field="--methods")
+    return out
+
+
+def print_summary(rows: list[dict]) -> None:
+    """Table 5 and the targets, with rich."""
+    from gymtrack.eval.report import _fmt, claims, table5
+
+    t5 = table5(rows)
+    if t5:
+        ns = [k[3:] for k in t5[0] if k.startswith("fr_")]
+        tab = Table(title="Table 5: average FR and speed", title_justify="left")
+        tab.add_column("method")
+        for n in ns:
+            tab.add_column(f"FR n_cam={n}", justify="right")
+        tab.add_column("frames/s", justify="right")
+        for r in t5:
+            tab.add_row(r["method"], *[_fmt(r[f"fr_{n}"], "pct") for n in ns], _fmt(r["fps"], "fps"))
+        console.print(tab)
+    tab = Table(title="Targets", title_justify="left")
+    for col in ("target", "value", "result", "detail"):
+        tab.add_column(col)
+    colour = {"PASS": "green", "FAIL": "red"}
+    for c in claims(rows):
+        tab.add_row(c.name, _fmt(c.value, "ratio") if abs(c.value) < 100 else _fmt(c.value, "fps"),
+                    f"[{colour.get(c.status, 'yellow')}]{c.status}[/]", c.detail)
+    console.print(tab)
+
+
+@app.command()
+def benchmark(
+    out: Path = typer.Option(..., "--out", "-o", help="output folder: report.md, CSV, JSON, plots"),
+    suite: Optional[Path] = typer.Option(None, "--suite", "-s", help="suite folder (simulate-suite output); absent: simulate the default suite into OUT/suite"),
+    jobs: int = typer.Option(0, "--jobs", "-j", help="parallel routines (0: one per CPU)"),
+    methods: str = typer.Option("cascade,triangulation,plane,mvpt,oracle", "--methods", "-m", help="comma-separated: cascade, triangulation, plane, mvpt, oracle"),
+    per_apparatus: int = typer.Option(2, "--per-apparatus", help="routines per apparatus (each seen with n_cam = 2, 3, 4) when simulating the default suite; 20 = the paper's 140 routines"),
+    seconds: float = typer.Option(25.0, "--seconds", help="routine length in seconds when simulating the default suite (0: the simulator's defaults, 60 s and 20 s for vault)"),
+    wildtrack: Path = typer.Option(Path("../shared/data/wildtrack"), "--wildtrack", help="WILDTRACK folder for the real-data section (skipped with a note if absent)"),
+    no_wildtrack: bool = typer.Option(False, "--no-wildtrack", help="skip the real-data section"),
+    no_mot: bool = typer.Option(False, "--no-mot", help="skip the all-people MOT metrics (faster)"),
+) -> None:
+    """Benchmark the tracker's modes, the MvPT-like baseline and the GT-association oracle (paper Tables 3, 5, 6)."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from gymtrack.eval.benchmark import read_suite, run_suite, simulate_default_suite, write_benchmark
+
+    method_list = _methods(methods)
+    n_jobs = jobs if jobs > 0 else (os.cpu_count() or 1)
+    if suite is None:
+        suite = out / "suite"
+        if not (suite / "suite.json").is_file():
+            console.print(f"no --suite: simulating the default suite ({per_apparatus} routines per apparatus, each with "
+                          f"n_cam = 2, 3, 4) into [bold]{suite}[/]")
+            simulate_default_suite(suite, per_apparatus, seconds or None, jobs=n_jobs,
+                                   progress=lambda k, n, a: console.print(f"  simulated {a} ({k}/{n})"))
+        else:
+            console.print(f"no --suite: using the suite already simulated in [bold]{suite}[/]")
+    specs = read_suite(suite)
+    console.print(f"{len(specs)} routines x {len(method_list)} methods, {n_jobs} parallel jobs")
+    with Progress(TextColumn("[bold]benchmark"), BarColumn(), MofNCompleteColumn(), TextColumn("routines"),
+                  TimeElapsedColumn(), TextColumn("{task.description}"), console=console, transient=True) as bar:
+        task = bar.add_task("", total=len(specs))
+
+        def progress(done: int, total: int, name: str) -> None:
+            bar.update(task, completed=done, description=name)
+
+        run = run_suite(specs, method_list, jobs=n_jobs, mot=not no_mot, progress=progress)
+    wt = None
+    if not no_wildtrack:
+        from gymtrack.eval.wildtrack import run_wildtrack
+
+        console.print("WILDTRACK real-data section ...")
+        wt = run_wildtrack(wildtrack, log=lambda s: console.print("  " + s))
+        if not wt.get("available"):
+            console.print(f"[yellow]{wt['note']}[/]")
+    files = write_benchmark(run, out, meta={"suite": str(suite), "methods": ", ".join(method_list)}, wildtrack=wt)
+    print_summary(run.rows)
+    failed = [r for r in run.rows if r.get("error")]
+    if failed:
+        console.print(f"[red]{len(failed)} runs failed[/] (listed in the report), e.g. {failed[0]['routine']} / "
+                      f"{failed[0]['method']}: {failed[0]['error']}")
+    console.print(f"report: [bold]{files['report']}[/] ({run.seconds:.0f} s)")

@@ -1,0 +1,26 @@
+"""Evaluation: the paper's metrics, the baselines and the benchmark (paper Section IV).
+
+* :mod:`.metrics`    ID switches, AED, FR, coverage of the target; MOTA / IDF1 of all people
+* :mod:`.gt`         ground truth of a routine; detections labelled with GT persons (the oracle)
+* :mod:`.mvpt`       the frame-by-frame MvPT-like baseline
+* :mod:`.benchmark`  every method on every routine of a suite, in parallel processes
+* :mod:`.report`     Tables 3, 5, 6, the claims, report.md / CSV / JSON, Fig. 6 plots
+* :mod:`.wildtrack`  the real-data section on WILDTRACK
+
+Only the light modules are imported here; the others pull in the tracker and are imported on use.
+"""
+
+from .gt import GroundTruth, load_ground_truth, match_detections_to_gt, with_gt_ids
+from .metrics import (
+    average_euclidean_distance,
+    coverage,
+    failure_rate,
+    mot_metrics,
+    performing_frames,
+    target_id_switches,
+)
+
+__all__ = [
+    "GroundTruth", "load_ground_truth", "match_detections_to_gt", "with_gt_ids",
+    "average_euclidean_distance", "coverage", "failure_rate", "mot_metrics", "performing_frames", "target_id_switches",
+]

@@ -1,0 +1,348 @@
+"""The benchmark: every method on every routine of a suite, evaluated against ground truth.
+
+Paper: Section IV (Tables 3, 5, 6 and Fig. 6). Methods:
+
+* ``cascade``, ``triangulation``, ``plane``: the tracker's modes (Table 6's ablation);
+* ``mvpt``: the frame-by-frame baseline of :mod:`gymtrack.eval.mvpt`;
+* ``oracle``: the ground-truth association (detections labelled by :func:`gymtrack.eval.gt.with_gt_ids`)
+  fed to the cascade's 3D estimation (``association="oracle"``): the limit better association
+  could reach, not a method.
+
+Each routine is one task of a ``concurrent.futures.ProcessPoolExecutor``: the worker reads the
+routine folder and its ground truth, runs every method, and returns one row per method with the
+additive parts of every metric (:mod:`gymtrack.eval.report` pools and tabulates them). Speed is
+the tracker call alone, timed with ``time.perf_counter`` around it (file reading, GT matching
+and evaluation excluded), in the worker process -- so with ``jobs`` > 1 the methods of one routine
+share a core with other routines' work, equally for every method.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+import traceback
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Sequence
+
+import numpy as np
+
+from ..detections import Detections
+from ..errors import InputError, RoutineError
+from ..formats.scene import Scene
+from ..geometry.camera import Rig
+from .gt import GroundTruth, load_ground_truth, with_gt_ids
+from .metrics import (
+    average_euclidean_distance,
+    coverage,
+    failure_rate,
+    in_box,
+    mot_metrics,
+    target_id_switches,
+)
+from .report import METHODS
+
+#: Apparatus whose n_cam = 2 routine is drawn like the paper's Fig. 6.
+FIG6_APPARATUS: tuple[str, ...] = ("balance_beam", "uneven_bars", "parallel_bars")
+
+
+@dataclass(frozen=True)
+class RoutineSpec:
+    """One routine of a suite: its folder and what it is."""
+
+    name: str
+    path: str
+    apparatus: str
+    n_cam: int
+    seed: int = 0
+
+
+# ----------------------------------------------------------------------------- methods
+def run_method(method: str, rig: Rig, scene: Scene, det: Detections, gt: GroundTruth | None = None):
+    """Run one method; returns ``(TrackResult, tracker seconds, extra summary dict)``.
+
+    The oracle needs ``gt``: its GT matching happens before the clock starts.
+    """
+    from ..tracking.tracker import MODES, track_detections
+
+    extra: dict = {}
+    if method in MODES:
+        t0 = time.perf_counter()
+        res = track_detections(rig, scene, det, mode=method)
+    elif method == "mvpt":
+        from .mvpt import track_mvpt
+
+        t0 = time.perf_counter()
+        res = track_mvpt(rig, scene, det)
+    elif method == "oracle":
+        if gt is None:
+            raise InputError("the oracle needs the routine's ground truth (gt/)", field="oracle")
+        det, m = with_gt_ids(det, gt)
+        extra = {"oracle_matched": m.matched, "oracle_unmatched": m.unmatched}
+        t0 = time.perf_counter()
+        res = track_detections(rig, scene, det, mode="cascade", association="oracle")
+    else:
+        raise InputError(f"unknown method {method!r}; choose from {', '.join(METHODS)}", field="methods")
+    return res, time.perf_counter() - t0, extra
+
+
+# ----------------------------------------------------------------------------- evaluation
+def evaluate_routine(result, gt: GroundTruth, scene: Scene, rig: Rig | None = None, mot: bool = True) -> dict:
+    """Every metric of one method on one routine, as additive parts (see :mod:`.report`).
+
+    result: a :class:`~gymtrack.tracking.types.TrackResult` (``target``, ``target_boxes``,
+    ``tracks``); gt: the routine's ground truth with the same cameras; scene: for ``S_perf`` and
+    ``S_track``; rig: for the image sizes (the FR clips boxes to the image); mot: also compute the
+    all-people MOT metrics (the slowest part, ~1 ms per frame).
+    """
+    perf_space = np.asarray(scene.performance_space, dtype=np.float64)
+    t = gt.target()
+    perf_rows = t.performing(perf_space)
+    perf_frames = np.unique(t.frame[perf_rows])
+    tg = result.target
+    sw = target_id_switches(perf_frames, tg.frame, tg.track_id, tg.xyz, gt.frame, gt.person_id, gt.xyz)
+    aed = average_euclidean_distance(t.frame, t.xyz, tg.frame, tg.xyz, frames=perf_frames)
+    vis = t.box_visible & np.isin(t.box_frame, perf_frames)
+    size = None if rig is None else np.array([c.size for c in rig], dtype=np.float64)
+    tb = result.target_boxes
+    fr = failure_rate(t.box_frame[vis], t.box_camera[vis], t.box[vis], tb.frame, tb.camera, tb.box, image_size=size)
+    cov = coverage(perf_frames, tg.frame)
+    row = {
+        "idsw": sw.total, "idsw_track": sw.track_id_changes, "idsw_person": sw.person_changes,
+        "aed_sum": aed.total, "aed_n": aed.n,
+        "fr_failures": fr.failures, "fr_evaluated": fr.evaluated, "fr_missing": fr.missing,
+        "fr_outside": fr.outside, "fr_too_small": fr.too_small,
+        "cov_covered": cov.covered, "cov_frames": cov.frames,
+    }
+    if mot:
+        tr = result.tracks
+        region = in_box(gt.xyz, scene.tracking_space)
+        m = mot_metrics(gt.frame, gt.person_id, gt.xyz, tr.frame, tr.track_id, tr.xyz, max_dist=1.0, gt_in_region=region)
+        row |= {"mota": m.mota, "idf1": m.idf1, "mot_idsw": m.id_switches, "mot_fp": m.false_positives,
+                "mot_fn": m.misses, "mot_objects": m.objects}
+    return row
+
+
+# ----------------------------------------------------------------------------- one routine
+def run_routine(spec: RoutineSpec, methods: Sequence[str], keep_trajectories: bool = False, mot: bool = True) -> dict:
+    """Load a routine folder and its GT, run and evaluate every method (a worker task).
+
+    Returns ``{"rows": [...], "trajectories": {...} | None, "spec": ...}``; a method that raises
+    gives a row with ``error`` set instead of stopping the benchmark.
+    """
+    from ..formats.routine import load_routine
+
+    r = load_routine(spec.path)
+    size = np.array([c.size for c in r.rig], dtype=np.float64)
+    gt = load_ground_truth(spec.path, r.rig.names, image_size=size)
+    rows, traj = [], {}
+    base = {"routine": spec.name, "apparatus": spec.apparatus, "n_cam": spec.n_cam, "seed": spec.seed}
+    if keep_trajectories:
+        t = gt.target()
+        traj["GT"] = (t.frame, t.xyz)
+        traj["fps"] = float(r.scene.fps)
+    for method in methods:
+        try:
+            res, sec, extra = run_method(method, r.rig, r.scene, r.detections, gt)
+            row = {**base, "method": method, "frames": int(res.summary.get("frames", 0)), "seconds": sec,
+                   **evaluate_routine(res, gt, r.scene, r.rig, mot=mot),
+                   "target_switches": int(res.summary.get("target_switches", 0)), "error": "", **extra}
+            if keep_trajectories:
+                traj[method] = (res.target.frame, res.target.xyz)
+        except Exception as exc:  # one failing method must not lose the others' results
+            detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
+            row = {**base, "method": method, "frames": 0, "seconds": 0.0, "error": detail}
+        rows.append(row)
+    return {"rows": rows, "trajectories": traj if keep_trajectories else None, "spec": spec.__dict__}
+
+
+# ----------------------------------------------------------------------------- suites
+def read_suite(suite: str | Path) -> list[RoutineSpec]:
+    """The routines of a suite folder.
+
+    Reads ``suite.json`` when present: a list of routine entries, or a mapping with a
+    ``routines`` list; each entry names its folder (``path``, relative to the suite, or ``name``)
+    and gives ``apparatus``, ``n_cam`` and ``seed`` (what is missing is read from the routine's
+    scene.yaml / calibration). Without ``suite.json``, every sub-folder holding a ``scene.yaml``
+    is a routine.
+    """
+    suite = Path(suite)
+    if not suite.is_dir():
+        raise RoutineError("suite folder not found", source=suite)
+    index = suite / "suite.json"
+    entries: list[dict] = []
+    if index.is_file():
+        try:
+            data = json.loads(index.read_text())
+        except json.JSONDecodeError as exc:
+            raise RoutineError(f"not valid JSON: {exc.msg}", source=index, line=exc.lineno) from None
+        items = data.get("routines", data) if isinstance(data, dict) else data
+        if not isinstance(items, list):
+            raise RoutineError("expected a list of routines (or {'routines': [...]})", source=index)
+        for k, e in enumerate(items):
+            if isinstance(e, str):
+                e = {"path": e}
+            if not isinstance(e, dict) or not (e.get("path") or e.get("name")):
+                raise RoutineError("each routine needs a 'path' (or 'name')", source=index, field=f"routines[{k}]")
+            entries.append(e)
+    else:
+        entries = [{"path": p.name} for p in sorted(suite.iterdir()) if (p / "scene.yaml").is_file()]
+    if not entries:
+        raise RoutineError("the suite has no routines (no suite.json and no sub-folder with a scene.yaml)", source=suite)
+    specs = []
+    for k, e in enumerate(entries):
+        rel = e.get("path") or e.get("name")
+        path = Path(rel) if Path(rel).is_absolute() else suite / rel
+        if not path.is_dir():
+            raise RoutineError(f"routine folder {rel!r} not found", source=index if index.is_file() else suite, field=f"routines[{k}]")
+        app, n_cam = e.get("apparatus"), e.get("n_cam")
+        if app is None or n_cam is None:
+            app, n_cam = _describe(path, app, n_cam)
+        specs.append(RoutineSpec(name=str(e.get("name") or Path(rel).as_posix()), path=str(path), apparatus=str(app), n_cam=int(n_cam),
+                                 seed=int(e.get("seed", 0))))
+    return specs
+
+
+def _describe(path: Path, app, n_cam) -> tuple[str, int]:
+    """Apparatus (scene.yaml) and number of cameras (calibration) of a routine folder."""
+    import yaml
+
+    if app is None:
+        data = yaml.safe_load((path / "scene.yaml").read_text()) or {}
+        app = data.get("apparatus") or "custom"
+    if n_cam is None:
+        from ..formats.calibration import find_calibration, read_calibration
+
+        rig, _ = read_calibration(find_calibration(path, error=RoutineError))
+        n_cam = len(rig)
+    return app, n_cam
+
+
+#: The default suite of ``gymtrack benchmark`` without ``--suite``: routines per apparatus and
+#: seconds per routine, sized to run (simulation + benchmark) in under 10 minutes on 2 cores.
+DEFAULT_PER_APPARATUS = 2
+DEFAULT_SECONDS = 25.0
+
+
+def _simulate_apparatus(out: str, apparatus: str, per_apparatus: int, seconds: float | None, seed: int) -> list[dict]:
+    from ..simulate import simulate_suite
+
+    return simulate_suite(Path(out), per_apparatus, seconds=seconds, seed=seed, apparatus=[apparatus])
+
+
+def simulate_default_suite(out: str | Path, per_apparatus: int = DEFAULT_PER_APPARATUS, seconds: float | None = DEFAULT_SECONDS,
+                           seed: int = 0, jobs: int | None = None, progress: Callable[[int, int, str], None] | None = None) -> Path:
+    """Simulate the suite (7 apparatus x ``per_apparatus`` x n_cam 2, 3, 4) into ``out``, apparatus in parallel.
+
+    The same routines and seeds as ``gymtrack simulate-suite --per-apparatus K --seconds S``
+    (:func:`gymtrack.simulate.simulate_suite`, one call per apparatus in a process pool); the
+    ``suite.json`` index is written once at the end with every apparatus' entries.
+    """
+    from ..apparatus import APPARATUS_NAMES
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    jobs = max(1, int(jobs or os.cpu_count() or 1))
+    entries: dict[str, list[dict]] = {}
+    with ProcessPoolExecutor(max_workers=min(jobs, len(APPARATUS_NAMES))) as pool:
+        futs = {pool.submit(_simulate_apparatus, str(out), a, per_apparatus, seconds, seed): a for a in APPARATUS_NAMES}
+        for k, fut in enumerate(as_completed(futs)):
+            entries[futs[fut]] = fut.result()
+            if progress:
+                progress(k + 1, len(APPARATUS_NAMES), futs[fut])
+    index = {"base_seed": int(seed), "per_apparatus": int(per_apparatus), "seconds": seconds, "n_cams": [2, 3, 4],
+             "layout": "<apparatus>/ncam<n>/r<k>", "routines": [e for a in APPARATUS_NAMES for e in entries[a]]}
+    (out / "suite.json").write_text(json.dumps(index, indent=1) + "\n")
+    return out
+
+
+@dataclass
+class BenchmarkRun:
+    """What :func:`run_suite` produced."""
+
+    rows: list[dict]
+    trajectories: dict[str, dict] = field(default_factory=dict)  #: routine -> series for Fig. 6
+    specs: list[RoutineSpec] = field(default_factory=list)
+    seconds: float = 0.0
+    jobs: int = 1
+
+
+def fig6_routines(specs: Sequence[RoutineSpec]) -> set[str]:
+    """The first n_cam = 2 routine of each Fig. 6 apparatus (balance beam, uneven bars, parallel bars)."""
+    out: dict[str, str] = {}
+    for s in specs:
+        if s.n_cam == 2 and s.apparatus in FIG6_APPARATUS and s.apparatus not in out:
+            out[s.apparatus] = s.name
+    return set(out.values())
+
+
+def run_suite(
+    specs: Sequence[RoutineSpec],
+    methods: Sequence[str] = METHODS,
+    jobs: int | None = None,
+    mot: bool = True,
+    progress: Callable[[int, int, str], None] | None = None,
+) -> BenchmarkRun:
+    """Run every method on every routine, routines in parallel processes.
+
+    jobs: worker processes (default ``os.cpu_count()``); 1 runs in this process.
+    progress: ``progress(done, total, routine_name)`` after each routine.
+    """
+    bad = [m for m in methods if m not in METHODS]
+    if bad:
+        raise InputError(f"unknown method {bad[0]!r}; choose from {', '.join(METHODS)}", field="methods")
+    jobs = max(1, int(jobs or os.cpu_count() or 1))
+    want = fig6_routines(specs)
+    t0 = time.perf_counter()
+    results: list[dict] = []
+    if jobs == 1 or len(specs) <= 1:
+        for k, s in enumerate(specs):
+            results.append(run_routine(s, methods, s.name in want, mot))
+            if progress:
+                progress(k + 1, len(specs), s.name)
+    else:
+        with ProcessPoolExecutor(max_workers=min(jobs, len(specs))) as pool:
+            futs = {pool.submit(run_routine, s, list(methods), s.name in want, mot): s for s in specs}
+            for k, fut in enumerate(as_completed(futs)):
+                s = futs[fut]
+                try:
+                    results.append(fut.result())
+                except Exception as exc:  # the routine itself could not be read
+                    msg = "".join(traceback.format_exception_only(type(exc), exc)).strip()
+                    results.append({"rows": [{"routine": s.name, "apparatus": s.apparatus, "n_cam": s.n_cam, "seed": s.seed,
+                                              "method": m, "frames": 0, "seconds": 0.0, "error": msg} for m in methods],
+                                    "trajectories": None})
+                if progress:
+                    progress(k + 1, len(specs), s.name)
+    order = {s.name: i for i, s in enumerate(specs)}
+    results.sort(key=lambda r: order.get(r["rows"][0]["routine"], 0) if r["rows"] else 0)
+    rows = [row for r in results for row in r["rows"]]
+    traj = {r["rows"][0]["routine"]: r["trajectories"] for r in results if r.get("trajectories")}
+    return BenchmarkRun(rows, traj, list(specs), time.perf_counter() - t0, jobs)
+
+
+def write_benchmark(run: BenchmarkRun, out: str | Path, meta: dict | None = None, wildtrack: dict | None = None) -> dict[str, Path]:
+    """Write the report, tables, JSON and the Fig. 6 plots of a run under ``out``."""
+    from .report import plot_target_trajectories, write_report
+    from .wildtrack import wildtrack_markdown
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    plots = []
+    by_name = {s.name: s for s in run.specs}
+    for name, series in sorted(run.trajectories.items()):
+        s = by_name.get(name)
+        keep = {k: v for k, v in series.items() if k in ("GT", "cascade", "triangulation")}
+        if s is None or len(keep) < 2:
+            continue
+        try:
+            p = plot_target_trajectories(out / f"fig6_{s.apparatus}.png", f"{s.apparatus} ({name}), n_cam = 2: target centre",
+                                         keep, fps=float(series.get("fps", 30.0)))
+            plots.append(p.name)
+        except ImportError:  # matplotlib is optional (the 'plot' extra)
+            break
+    meta = {"routines": len(run.specs), "parallel jobs": run.jobs, "CPUs": os.cpu_count(), "wall seconds": round(run.seconds, 1),
+            **(meta or {})}
+    return write_report(out, run.rows, meta, plots, wildtrack_markdown(wildtrack) if wildtrack else None, wildtrack)
