@@ -1,0 +1,40 @@
+"""Simulated gymnastics routines with ground truth (the paper's data is private).
+
+Paper: Section IV-A (seven apparatus, four cameras, ``n_cam`` = 2, 3, 4 valid views) and the
+failure case of Sections I and III-C: long stretches where only two opposite views detect the
+gymnast, whose box centres are *different* 3D points, so triangulating them is biased along the
+line between the cameras.
+
+Modules: :mod:`.venue` (cameras), :mod:`.body` (COCO-17 skeleton, postures, 3D extent),
+:mod:`.motion` (phase builder with exact ballistic flights), :mod:`.skills` (the target's
+routine per apparatus), :mod:`.people` (coaches, judges, background), :mod:`.detector` (true
+boxes and the detector model), :mod:`.routine` (orchestration and files), :mod:`.plot`.
+
+Use :func:`simulate_routine` (in memory, optionally written), :func:`simulate_n_cams` (one
+performance with n_cam = 2, 3, 4) or :func:`simulate_suite`; the
+``gymtrack simulate`` / ``gymtrack simulate-suite`` commands wrap them.
+"""
+
+from .detector import DetectorParams
+from .routine import (
+    DEFAULT_SECONDS,
+    MIN_SECONDS,
+    TARGET_ID,
+    SimulatedRoutine,
+    routine_seed,
+    simulate_n_cams,
+    simulate_routine,
+    simulate_suite,
+)
+
+__all__ = [
+    "DEFAULT_SECONDS",
+    "MIN_SECONDS",
+    "TARGET_ID",
+    "DetectorParams",
+    "SimulatedRoutine",
+    "routine_seed",
+    "simulate_n_cams",
+    "simulate_routine",
+    "simulate_suite",
+]

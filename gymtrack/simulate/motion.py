@@ -1,0 +1,470 @@
+"""Building a person's motion as arrays over frames: phases appended one after another.
+
+Paper: the target's 3D centre that the tracker must follow (Section III), in the gymnastics
+setting of Section IV: walking in, salute, mount, skills, dismount, salute, walking out.
+
+A :class:`MotionBuilder` holds the state of one body (centre, yaw, pitch, twist, posture
+angles) and appends *phases*, each built as whole arrays over its frames (never a Python loop
+per frame). A phase starts one frame after the last frame already built, from the state that
+frame left, so joins are continuous by construction. Supported phases place the body by its
+feet (:meth:`BodyModel.centre_on_feet`) or by its palms on a bar or ring
+(:meth:`BodyModel.centre_on_grip`); ballistic phases follow ``p(t) = p0 + v0 t - g t^2 / 2 e_z``
+exactly (:meth:`MotionBuilder.flight`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import body as B
+
+G = 9.81  #: gravity, m/s^2
+
+# Phase labels of the target's frames.
+WALK, SALUTE, MOUNT, SKILL, DISMOUNT, LANDING, OFF_PLANE, WAIT = range(8)
+PHASE_NAMES = ("walk", "salute", "mount", "skill", "dismount", "landing", "off_plane", "wait")
+#: Phases in which the target performs (its centre must stay in the performance space).
+PERFORMING = (MOUNT, SKILL, DISMOUNT, LANDING, OFF_PLANE)
+
+
+def smoothstep(x: np.ndarray) -> np.ndarray:
+    """Minimum-jerk ramp 0 -> 1 for ``x`` in [0, 1] (zero velocity and acceleration at both ends)."""
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * x * (10 - 15 * x + 6 * x * x)
+
+
+def wrap_angle(a):
+    """Angles to (-pi, pi]."""
+    return (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
+
+
+@dataclass
+class Motion:
+    """A person's motion over ``n`` frames.
+
+    Attributes
+    ----------
+    centre: (n, 3) body centre, metres.
+    yaw, pitch, twist: (n,) radians (:func:`gymtrack.simulate.body.orientation`).
+    angles: (n, A) posture angles, degrees.
+    posture: (n,) int8 posture label (:data:`gymtrack.simulate.body.POSTURE_NAMES`).
+    phase: (n,) int8 phase label (:data:`PHASE_NAMES`).
+    flight: (n,) bool, ballistic frames (only gravity acts).
+    """
+
+    centre: np.ndarray
+    yaw: np.ndarray
+    pitch: np.ndarray
+    twist: np.ndarray
+    angles: np.ndarray
+    posture: np.ndarray
+    phase: np.ndarray
+    flight: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.centre)
+
+    @property
+    def performing(self) -> np.ndarray:
+        return np.isin(self.phase, PERFORMING)
+
+    def slice(self, start: int, stop: int) -> "Motion":
+        return Motion(*(getattr(self, f)[start:stop] for f in self.__dataclass_fields__))
+
+
+class MotionBuilder:
+    """Appends phases for one body. ``fps`` frames per second; ``rng`` a numpy Generator."""
+
+    def __init__(self, body: B.BodyModel, fps: float, rng: np.random.Generator):
+        self.body = body
+        self.fps = float(fps)
+        self.rng = rng
+        self._chunks: list[dict[str, np.ndarray]] = []
+        self._n = 0
+        self.centre = np.zeros(3)
+        self.yaw = self.pitch = self.twist = 0.0
+        self.angles = B.posture_angles(B.STAND)
+        self.posture = B.STAND
+        self.gait = 0.0
+
+    # ------------------------------------------------------------------ bookkeeping
+    @property
+    def n(self) -> int:
+        """Frames built so far."""
+        return self._n
+
+    @property
+    def time(self) -> float:
+        return self._n / self.fps
+
+    @property
+    def upright_pitch(self) -> float:
+        """The multiple of 2 pi nearest the current pitch (upright after any number of saltos)."""
+        return float(np.round(self.pitch / (2 * np.pi)) * 2 * np.pi)
+
+    def fold_twist(self) -> None:
+        """When upright (pitch a multiple of 2 pi) a twist is a change of heading: move it to yaw
+        so later phases do not unwind it. Leaves the orientation matrix unchanged."""
+        if abs(self.pitch - self.upright_pitch) < 1e-6 and self.twist != 0.0:
+            self.yaw += self.twist
+            self.twist = 0.0
+
+    def frames_for(self, seconds: float) -> int:
+        return max(1, int(round(seconds * self.fps)))
+
+    def append(self, centre, yaw, pitch, twist, angles, posture, phase, flight=None) -> None:
+        """Append frames given as arrays (n, 3), (n,), (n,), (n,), (n, A), label(s), label(s)."""
+        centre = np.asarray(centre, dtype=np.float64).reshape(-1, 3)
+        n = centre.shape[0]
+        if n == 0:
+            return
+        full = lambda v, dt: np.broadcast_to(np.asarray(v, dtype=dt), (n,)).copy()  # noqa: E731
+        chunk = {
+            "centre": centre,
+            "yaw": full(yaw, np.float64),
+            "pitch": full(pitch, np.float64),
+            "twist": full(twist, np.float64),
+            "angles": np.broadcast_to(np.asarray(angles, dtype=np.float64), (n, B.N_ANGLES)).copy(),
+            "posture": full(posture, np.int8),
+            "phase": full(phase, np.int8),
+            "flight": np.zeros(n, bool) if flight is None else full(flight, bool),
+        }
+        self._chunks.append(chunk)
+        self._n += n
+        self.centre = centre[-1].copy()
+        self.yaw, self.pitch, self.twist = float(chunk["yaw"][-1]), float(chunk["pitch"][-1]), float(chunk["twist"][-1])
+        self.angles = chunk["angles"][-1].copy()
+        self.posture = int(chunk["posture"][-1])
+
+    def build(self) -> Motion:
+        """The motion built so far."""
+        cat = {k: np.concatenate([c[k] for c in self._chunks]) for k in self._chunks[0]}
+        return Motion(**cat)
+
+    # ------------------------------------------------------------------ helpers
+    def _tau(self, n: int) -> np.ndarray:
+        """(n,) 1/n .. 1: the fraction of a phase of n frames reached at each of its frames."""
+        return np.arange(1, n + 1) / n
+
+    def _blend_angles(self, target: np.ndarray, w: np.ndarray) -> np.ndarray:
+        return self.angles[None] + w[:, None] * (np.asarray(target, float)[None] - self.angles[None])
+
+    def keyframed_angles(self, n: int, keys: list[tuple[float, np.ndarray]]) -> np.ndarray:
+        """(n, A) angles through keyframes ``[(fraction, angles), ...]`` starting from the current
+        angles at fraction 0, with minimum-jerk easing between keys."""
+        fr = np.array([0.0] + [k[0] for k in keys])
+        vals = np.stack([self.angles] + [np.asarray(k[1], float) for k in keys])
+        tau = self._tau(n)
+        seg = np.clip(np.searchsorted(fr, tau, side="right") - 1, 0, len(fr) - 2)
+        span = np.maximum(fr[seg + 1] - fr[seg], 1e-9)
+        w = smoothstep((tau - fr[seg]) / span)
+        return vals[seg] + w[:, None] * (vals[seg + 1] - vals[seg])
+
+    def place(self, xy, support_z: float, yaw: float, posture: int = B.STAND, phase: int = WALK) -> None:
+        """Start the motion: one frame standing on ``support_z`` at ``xy`` facing ``yaw``."""
+        a = B.posture_angles(posture)
+        self.angles = a
+        c = self.body.centre_on_feet(np.asarray(xy, float)[None], support_z, a[None], [yaw], [0.0], [0.0])
+        self.append(c, yaw, 0.0, 0.0, a[None], posture, phase)
+
+    # ------------------------------------------------------------------ supported phases
+    def stand(self, seconds: float, support_z: float, posture: int = B.STAND, phase: int = WAIT,
+              yaw: float | None = None, pitch: float = 0.0, sway: float = 0.004, angles: np.ndarray | None = None) -> None:
+        """Stand (or hold a pose) on the feet for ``seconds``; posture and heading ease in."""
+        n = self.frames_for(seconds)
+        w = smoothstep(np.minimum(self._tau(n) * seconds / min(0.4, seconds), 1.0))
+        a = self._blend_angles(B.posture_angles(posture) if angles is None else angles, w)
+        yaw1 = self.yaw if yaw is None else self.yaw + wrap_angle(yaw - self.yaw)
+        yw = self.yaw + w * (yaw1 - self.yaw)
+        pw = self.pitch + w * (self.upright_pitch + pitch - self.pitch)
+        tw = self.twist + w * (np.round(self.twist / (2 * np.pi)) * 2 * np.pi - self.twist)
+        xy = self.centre[:2] + self._wobble(n, sway)
+        c = self.body.centre_on_feet(xy, support_z, a, yw, pw, tw)
+        self.append(c, yw, pw, tw, a, posture, phase)
+
+    def _wobble(self, n: int, amp: float) -> np.ndarray:
+        """(n, 2) a slow zero-start wobble of amplitude ``amp`` metres (balance, breathing)."""
+        if amp <= 0:
+            return np.zeros((n, 2))
+        f = self.rng.uniform(0.2, 0.6, 2)
+        ph = self.rng.uniform(0, 2 * np.pi, 2)
+        t = np.arange(1, n + 1)[:, None] / self.fps
+        return amp * (np.sin(2 * np.pi * f * t + ph) - np.sin(ph))
+
+    def walk_to(self, xy, speed: float, support_z: float, phase: int = WALK, run: bool = False,
+                accel_s: float = 0.5, lateral: float = 0.0) -> None:
+        """Walk (or run) in a straight line to ``xy`` at cruising ``speed`` m/s, feet on ``support_z``.
+
+        ``lateral``: amplitude (m) of the side-to-side sway of a walk (a few cm on a beam)."""
+        start = self.centre[:2].copy()
+        goal = np.asarray(xy, dtype=np.float64)
+        d = float(np.linalg.norm(goal - start))
+        if d < 1e-3:
+            return
+        ta = min(accel_s, d / speed / 2)
+        T = d / speed + ta  # trapezoid profile: accelerate ta, cruise, decelerate ta
+        n = max(2, self.frames_for(T))
+        t = self._tau(n) * T
+        # distance along the path of a trapezoidal speed profile, with smooth corners
+        v = speed * np.minimum(np.minimum(t / ta, 1.0), np.minimum((T - t) / ta, 1.0))
+        s = np.cumsum(np.concatenate([[0.0], (v[1:] + v[:-1]) / 2 * np.diff(t)])) + v[0] * t[0] / 2
+        s = s / s[-1] * d
+        u = (goal - start) / d
+        heading = float(np.arctan2(u[1], u[0]))
+        yaw1 = self.yaw + wrap_angle(heading - self.yaw)
+        wy = smoothstep(np.minimum(t / 0.5, 1.0))
+        yaw = self.yaw + wy * (yaw1 - self.yaw)
+        stride = (1.25 if not run else 2.2) * self.body.height / 1.7
+        gait = self.gait + 2 * np.pi * s / stride
+        self.gait = float(gait[-1])
+        amp = np.clip(v / speed, 0, 1)
+        g = B.gait_angles(gait, run=run)
+        base = B.posture_angles(B.STAND)
+        a = base[None] + amp[:, None] * (g - base[None])
+        a = self.angles[None] + smoothstep(np.minimum(t / 0.3, 1.0))[:, None] * (a - self.angles[None])
+        pitch = self.pitch + smoothstep(np.minimum(t / 0.4, 1.0)) * (self.upright_pitch + (0.12 if run else 0.0) * amp - self.pitch)
+        side = np.array([-u[1], u[0]])
+        sway = lateral * np.sin(gait / 2) * amp
+        xy_t = start[None] + s[:, None] * u[None] + sway[:, None] * side[None]
+        tw = np.full(n, self.twist)
+        c = self.body.centre_on_feet(xy_t, support_z, a, yaw, pitch, tw)
+        self.append(c, yaw, pitch, tw, a, B.RUN if run else B.WALK, phase)
+
+    def turn(self, yaw_delta: float, seconds: float, support_z: float, posture: int = B.TURN, phase: int = SKILL) -> None:
+        """Turn on the spot by ``yaw_delta`` radians (a pirouette on a beam)."""
+        n = self.frames_for(seconds)
+        tau = self._tau(n)
+        a = self.keyframed_angles(n, [(0.25, B.posture_angles(posture)), (0.8, B.posture_angles(posture)), (1.0, B.posture_angles(B.STAND))])
+        yaw = self.yaw + smoothstep(tau) * yaw_delta
+        c = self.body.centre_on_feet(np.repeat(self.centre[None, :2], n, 0), support_z, a, yaw, np.full(n, self.pitch), np.full(n, self.twist))
+        self.append(c, yaw, self.pitch, self.twist, a, posture, phase)
+
+    def pose_on_feet(self, seconds: float, support_z: float, keys, pitch_keys=None, posture: int = B.BALANCE, phase: int = SKILL,
+                     xy_end=None) -> None:
+        """A supported pose (balance, squat...) through angle keyframes; optional pitch keyframes
+        ``[(fraction, lean)]`` (radians, relative to upright) and a slide of the feet to ``xy_end``."""
+        n = self.frames_for(seconds)
+        tau = self._tau(n)
+        a = self.keyframed_angles(n, keys)
+        p = np.full(n, self.pitch)
+        if pitch_keys:
+            fr = np.array([0.0] + [k[0] for k in pitch_keys])
+            pv = np.array([self.pitch] + [self.upright_pitch + k[1] for k in pitch_keys])
+            seg = np.clip(np.searchsorted(fr, tau, side="right") - 1, 0, len(fr) - 2)
+            p = pv[seg] + smoothstep((tau - fr[seg]) / np.maximum(fr[seg + 1] - fr[seg], 1e-9)) * (pv[seg + 1] - pv[seg])
+        xy0 = self.centre[:2]
+        xy1 = xy0 if xy_end is None else np.asarray(xy_end, float)
+        xy = xy0[None] + smoothstep(tau)[:, None] * (xy1 - xy0)[None]
+        c = self.body.centre_on_feet(xy, support_z, a, np.full(n, self.yaw), p, np.full(n, self.twist))
+        self.append(c, self.yaw, p, self.twist, a, posture, phase)
+
+    def absorb(self, support_z: float, seconds: float, angles_end, posture: int = B.CROUCH, phase: int = SKILL) -> None:
+        """Absorb a landing: the feet are down, the legs bend on into ``angles_end`` while the
+        body keeps moving the way it came and slows to rest (ease-out, so the centre's speed
+        falls from the impact speed instead of stopping within one frame)."""
+        if self.n < 2:
+            return
+        last = self._chunks[-1]["centre"]
+        prev = last[-2] if len(last) >= 2 else self._chunks[-2]["centre"][-1]
+        v_h = (self.centre[:2] - prev[:2]) * self.fps
+        n = self.frames_for(seconds)
+        T = n / self.fps
+        tau = self._tau(n)
+        s = 1.0 - (1.0 - tau) ** 2
+        a = self._blend_angles(angles_end, s)
+        xy = self.centre[None, :2] + (0.5 * T * s)[:, None] * v_h[None]
+        c = self.body.centre_on_feet(xy, support_z, a, np.full(n, self.yaw), np.full(n, self.pitch), np.full(n, self.twist))
+        self.append(c, self.yaw, self.pitch, self.twist, a, posture, phase)
+
+    def push(self, support_z: float, seconds: float, angles_end, posture: int = B.STAND, phase: int = SKILL) -> None:
+        """Push off: the legs extend into ``angles_end`` speeding up (ease-in), so a flight that
+        follows starts from a moving body."""
+        n = self.frames_for(seconds)
+        s = self._tau(n) ** 2
+        a = self._blend_angles(angles_end, s)
+        xy = np.repeat(self.centre[None, :2], n, 0)
+        c = self.body.centre_on_feet(xy, support_z, a, np.full(n, self.yaw), np.full(n, self.pitch), np.full(n, self.twist))
+        self.append(c, self.yaw, self.pitch, self.twist, a, posture, phase)
+
+    # ------------------------------------------------------------------ free transitions
+    def transition(self, seconds: float, centre_end, yaw_end=None, pitch_end=None, twist_end=None, angles_end=None,
+                   posture: int | None = None, phase: int = SKILL, arc=None, angle_keys=None) -> None:
+        """Minimum-jerk move of everything from the current state to the given end state.
+
+        arc: (3,) extra displacement at mid-phase (``sin(pi s)`` profile), e.g. the hump of a
+        walkover. angle_keys: keyframes for the posture instead of a straight blend.
+        """
+        n = self.frames_for(seconds)
+        s = smoothstep(self._tau(n))
+        c1 = np.asarray(centre_end, dtype=np.float64)
+        c = self.centre[None] + s[:, None] * (c1 - self.centre)[None]
+        if arc is not None:
+            c = c + np.sin(np.pi * s)[:, None] * np.asarray(arc, float)[None]
+        yaw = self.yaw + s * ((self.yaw if yaw_end is None else yaw_end) - self.yaw)
+        pitch = self.pitch + s * ((self.pitch if pitch_end is None else pitch_end) - self.pitch)
+        twist = self.twist + s * ((self.twist if twist_end is None else twist_end) - self.twist)
+        if angle_keys is not None:
+            a = self.keyframed_angles(n, angle_keys)
+        else:
+            a = self._blend_angles(self.angles if angles_end is None else angles_end, s)
+        self.append(c, yaw, pitch, twist, a, self.posture if posture is None else posture, phase)
+
+    def flight(self, centre_end, n_frames: int, pitch_end: float, twist_end: float | None = None, yaw_end: float | None = None,
+               angle_keys=None, posture: int = B.TUCK, phase: int = SKILL) -> np.ndarray:
+        """Ballistic flight to ``centre_end`` in exactly ``n_frames`` frames; returns the take-off velocity.
+
+        Frames 1..n-1 are in the air (``flight`` True) and follow the parabola exactly; frame n
+        is the contact (landing or regrasp) at ``centre_end``. Rotations are uniform in time
+        (angular momentum is conserved; the shape changes are in ``angle_keys``).
+        """
+        n = max(2, int(n_frames))
+        T = n / self.fps
+        p0 = self.centre.copy()
+        p1 = np.asarray(centre_end, dtype=np.float64)
+        gvec = np.array([0.0, 0.0, -G])
+        v0 = (p1 - p0) / T - 0.5 * gvec * T
+        t = np.arange(1, n + 1) / self.fps
+        c = p0[None] + t[:, None] * v0[None] + 0.5 * t[:, None] ** 2 * gvec[None]
+        c[-1] = p1  # the same number up to rounding; make the contact exact
+        tau = t / T
+        pitch = self.pitch + tau * (pitch_end - self.pitch)
+        twist = self.twist + tau * ((self.twist if twist_end is None else twist_end) - self.twist)
+        yaw = self.yaw + tau * ((self.yaw if yaw_end is None else yaw_end) - self.yaw)
+        a = self.keyframed_angles(n, angle_keys) if angle_keys else np.repeat(self.angles[None], n, 0)
+        fl = np.ones(n, bool)
+        fl[-1] = False
+        self.append(c, yaw, pitch, twist, a, posture, phase, fl)
+        return v0
+
+    def flight_frames(self, z0: float, z1: float, apex: float) -> int:
+        """Frames of a flight from height ``z0`` over ``apex`` down (or up) to ``z1``."""
+        apex = max(apex, z0 + 0.02, z1 + 0.02)
+        t = np.sqrt(2 * (apex - z0) / G) + np.sqrt(2 * (apex - z1) / G)
+        return max(3, int(round(t * self.fps)))
+
+    # ------------------------------------------------------------------ swinging about a grip
+    def _grip_phase(self, grip: np.ndarray, pitch: np.ndarray, yaw: float, angles: np.ndarray, posture: int, phase: int) -> None:
+        n = len(pitch)
+        yaw_a = np.full(n, yaw)
+        tw = np.full(n, self.twist)
+        c = self.body.centre_on_grip(np.broadcast_to(grip, (n, 3)), angles, yaw_a, pitch, tw)
+        self.append(c, yaw_a, pitch, tw, angles, posture, phase)
+
+    def giant(self, grip, turns: float, direction: float, omega_top: float, yaw: float, posture: int = B.ARMS_UP,
+              phase: int = SKILL, angle_fn=None, ramp_in: float = 0.0, ramp_out: float = 0.0) -> None:
+        """Circles about a bar held at ``grip`` (3,): ``turns`` turns, ``direction`` +1 / -1.
+
+        The body pitch (its angle about the bar, 0 = hanging, pi = handstand) follows energy
+        conservation of a physical pendulum, ``w^2 = w_top^2 + 2 g d / (d^2 + k^2) (1 + cos a)``,
+        so the body is slow over the bar and fast under it, as in a real giant swing.
+        ``angle_fn(pitch) -> (n, A)`` may shape the body along the circle (pike at the bottom...).
+        ``ramp_in`` / ``ramp_out`` (radians): start from rest / come to rest over that angle
+        (out of a handstand or a swing's turning point, into a turning point); the speed never
+        exceeds the energy-conserving one.
+        """
+        a_post = B.posture_angles(posture)
+        d = self.body.grip_radius(a_post)
+        k2 = (0.45 * 2.28 * self.body.height / 1.7) ** 2 / 3  # radius of gyration^2 of a straight body about its centre
+        th0 = self.pitch
+        th1 = th0 + direction * 2 * np.pi * turns
+        grid = np.linspace(th0, th1, 4000)
+        w = np.sqrt(omega_top**2 + 2 * G * d / (d * d + k2) * (1 + np.cos(grid)))
+        if ramp_in > 0:
+            w = w * np.sqrt(np.clip(np.abs(grid - th0) / ramp_in, 0.03, 1.0))
+        if ramp_out > 0:
+            w = w * np.sqrt(np.clip(np.abs(th1 - grid) / ramp_out, 0.03, 1.0))
+        dt = np.abs(np.diff(grid)) / (0.5 * (w[1:] + w[:-1]))
+        tg = np.concatenate([[0.0], np.cumsum(dt)])
+        n = int(np.floor(tg[-1] * self.fps))
+        if n < 1:
+            return
+        th = np.interp(np.arange(1, n + 1) / self.fps, tg, grid)
+        ang = np.repeat(a_post[None], n, 0) if angle_fn is None else angle_fn(th)
+        # ease the posture in over the first 0.3 s
+        wgt = smoothstep(np.minimum(np.arange(1, n + 1) / (0.3 * self.fps), 1.0))
+        ang = self.angles[None] + wgt[:, None] * (ang - self.angles[None])
+        self._grip_phase(np.asarray(grip, float), th, yaw, ang, posture, phase)
+
+    def swing(self, grip, amplitudes, yaw: float, posture: int = B.ARMS_UP, phase: int = SKILL, centre_angle: float = 0.0,
+              angle_fn=None, radius: float | None = None) -> None:
+        """Pendulum swings about ``grip`` (3,): the body turns from its current pitch through the
+        turning points ``centre_angle + A_1, centre_angle - A_2, centre_angle + A_3, ...``
+        (``amplitudes`` in radians; start with a negative amplitude to swing the other way
+        first). Each half swing lasts half the period of a physical pendulum (pivot to centre
+        ``radius``, default the palms-to-centre distance of ``posture``) with the
+        large-amplitude correction; the speed is zero at the turning points.
+        ``angle_fn(pitch) -> (n, A)`` shapes the body along the swing (support swings keep the
+        arms vertical with it)."""
+        a_post = B.posture_angles(posture)
+        d = self.body.grip_radius(a_post) if radius is None else radius
+        k2 = (0.45 * 2.28 * self.body.height / 1.7) ** 2 / 3
+        T0 = 2 * np.pi * np.sqrt((d * d + k2) / (G * d))
+        tps = [self.pitch] + [centre_angle + (A if i % 2 == 0 else -A) for i, A in enumerate(amplitudes)]
+        parts = []
+        for a0, a1 in zip(tps[:-1], tps[1:]):
+            A = min(max(abs(a0 - centre_angle), abs(a1 - centre_angle)), 2.5)
+            T = T0 * (1 + A * A / 16 + 11 * A**4 / 3072)
+            n = self.frames_for(T / 2)
+            s = np.arange(1, n + 1) / n
+            parts.append(a0 + (a1 - a0) * (1 - np.cos(np.pi * s)) / 2)
+        th = np.concatenate(parts)
+        n = th.size
+        wgt = smoothstep(np.minimum(np.arange(1, n + 1) / (0.3 * self.fps), 1.0))
+        target = np.repeat(a_post[None], n, 0) if angle_fn is None else angle_fn(th)
+        ang = self.angles[None] + wgt[:, None] * (target - self.angles[None])
+        self._grip_phase(np.asarray(grip, float), th, yaw, ang, posture, phase)
+
+    def hold_grip(self, grip, seconds: float, yaw: float, angles=None, posture: int | None = None, phase: int = SKILL,
+                  grip_end=None) -> None:
+        """Hold a pose on the grip (handstand, L-sit, cross); the grip may slide to ``grip_end``
+        (walking on the hands along parallel bars, shifting the hands along a bar)."""
+        n = self.frames_for(seconds)
+        s = smoothstep(self._tau(n))
+        g0 = np.asarray(grip, float)
+        g = g0[None] + (s[:, None] * (np.asarray(grip_end, float) - g0)[None] if grip_end is not None else 0.0)
+        w = smoothstep(np.minimum(self._tau(n) * seconds / min(0.4, seconds), 1.0))
+        a = self._blend_angles(self.angles if angles is None else angles, w)
+        sway = self._wobble(n, 0.01)[:, 0] * 0.5
+        th = np.full(n, self.pitch) + sway
+        yaw_a = np.full(n, yaw)
+        tw = np.full(n, self.twist)
+        c = self.body.centre_on_grip(np.broadcast_to(g, (n, 3)), a, yaw_a, th, tw)
+        self.append(c, yaw_a, th, tw, a, self.posture if posture is None else posture, phase)
+
+    def truncate(self, k: int) -> None:
+        """Drop the last ``k`` frames (e.g. to release a swing before its turning point)."""
+        while k > 0 and self._chunks:
+            last = self._chunks[-1]
+            m = len(last["centre"])
+            if m <= k:
+                self._chunks.pop()
+                self._n -= m
+                k -= m
+            else:
+                for key in last:
+                    last[key] = last[key][: m - k]
+                self._n -= k
+                k = 0
+        last = self._chunks[-1]
+        self.centre = last["centre"][-1].copy()
+        self.yaw, self.pitch, self.twist = float(last["yaw"][-1]), float(last["pitch"][-1]), float(last["twist"][-1])
+        self.angles = last["angles"][-1].copy()
+        self.posture = int(last["posture"][-1])
+
+    def grip_transition(self, grip, seconds: float, pitch_end: float, yaw: float, angles_end=None, posture: int | None = None,
+                        phase: int = SKILL, angle_keys=None, angle_fn=None, linear: bool = False) -> None:
+        """Turn about the grip to ``pitch_end`` with minimum jerk (kips, casts, presses), or at a
+        constant rate (``linear``: a short contact such as the vault's repulsion off the table).
+        ``angle_fn(pitch) -> (n, A)`` shapes the body by its pitch (arms kept vertical...)."""
+        n = self.frames_for(seconds)
+        s = self._tau(n) if linear else smoothstep(self._tau(n))
+        th = self.pitch + s * (pitch_end - self.pitch)
+        if angle_fn is not None:
+            a = angle_fn(th)
+        elif angle_keys is not None:
+            a = self.keyframed_angles(n, angle_keys)
+        else:
+            a = self._blend_angles(self.angles if angles_end is None else angles_end, s)
+        self._grip_phase(np.asarray(grip, float), th, yaw, a, self.posture if posture is None else posture, phase)
