@@ -1,1 +1,137 @@
-"""gymtrack CLI: track commands."""
+"""``gymtrack track`` and ``gymtrack demo``: run the tracker of Section III.
+
+* ``gymtrack track <routine> --out <out> [--mode cascade|triangulation|plane]`` reads a routine
+  folder, tracks it with a progress bar, writes the outputs of ``shared/formats.md``
+  (:func:`gymtrack.formats.outputs.write_outputs`) and prints a short summary.
+* ``gymtrack demo [--out DIR] [--seconds S]`` simulates a difficult routine (uneven bars seen by
+  two opposite cameras), tracks it with the cascade and with triangulation only, and prints the
+  target's mean 3D error (AED) against the ground truth for both: the point of the method in
+  one command.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+from rich.table import Table
+
+from gymtrack.cli import app
+from gymtrack.tracking.tracker import MODES
+
+console = Console()
+
+
+def summary_table(summary: dict, title: str = "Tracking summary") -> Table:
+    """A short table of a tracker summary: per-camera detections, tracks, target, speed."""
+    t = Table(title=title, title_justify="left")
+    t.add_column("what")
+    t.add_column("value", justify="right")
+    t.add_row("mode", str(summary["mode"]))
+    t.add_row("frames", f"{summary['frames']}")
+    read, used = summary["detections_read"], summary["detections_used"]
+    for cam in read:
+        t.add_row(f"detections {cam} (used / read)", f"{used[cam]} / {read[cam]}")
+    t.add_row("tracks", str(summary["tracks"]))
+    t.add_row("target frames", str(summary["target_frames"]))
+    t.add_row("target switches", str(summary["target_switches"]))
+    t.add_row("segments dropped (< min boxes)", str(summary["segments_dropped_short"]))
+    t.add_row("3D tracklets removed as outliers", str(summary["tracklets_outliers"]))
+    slowest = max(summary["seconds"], key=summary["seconds"].get)
+    t.add_row("seconds (slowest stage)", f"{summary['seconds_total']:.2f} ({slowest})")
+    t.add_row("frames per second", f"{summary['fps']}")
+    return t
+
+
+@app.command()
+def track(
+    routine: Path = typer.Argument(..., help="routine folder (cameras.yaml, scene.yaml, detections/)"),
+    out: Path = typer.Option(..., "--out", "-o", help="output folder"),
+    mode: str = typer.Option("cascade", "--mode", "-m", help="cascade | triangulation | plane"),
+) -> None:
+    """Track a routine: 3D tracks, per-view boxes and the target gymnast (paper Section III)."""
+    from gymtrack.errors import InputError
+    from gymtrack.formats.outputs import write_outputs
+    from gymtrack.formats.routine import load_routine
+    from gymtrack.tracking.tracker import track_detections
+
+    if mode not in MODES:
+        raise InputError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}", field="--mode")
+    r = load_routine(routine)
+    with Progress(TextColumn("[bold]tracking"), BarColumn(), MofNCompleteColumn(), TextColumn("frames"),
+                  TimeRemainingColumn(), console=console, transient=True) as bar:
+        task = bar.add_task("track", total=None)
+
+        def progress(done: int, total: int) -> None:
+            bar.update(task, completed=done, total=total)
+
+        result = track_detections(r.rig, r.scene, r.detections, mode=mode, progress=progress)
+    write_outputs(result, out)
+    console.print(summary_table(result.summary))
+    console.print(f"outputs written to [bold]{out}[/]")
+
+
+def _target_error(result, gt_frame: np.ndarray, gt_xyz: np.ndarray) -> tuple[float, float]:
+    """(AED in metres over the frames both have, coverage = share of GT frames with an output target)."""
+    from gymtrack.eval.metrics import pairs_by_key
+
+    i, j = pairs_by_key(result.target.frame, gt_frame)
+    aed = float(np.linalg.norm(result.target.xyz[i] - gt_xyz[j], axis=1).mean()) if len(i) else float("nan")
+    cov = len(np.unique(gt_frame[j])) / max(len(np.unique(gt_frame)), 1)
+    return aed, cov
+
+
+@app.command()
+def demo(
+    out: Optional[Path] = typer.Option(None, "--out", "-o", help="also write the routine and both results here"),
+    seconds: float = typer.Option(30.0, "--seconds", "-s", help="length of the simulated routine (10-600 s)"),
+    seed: int = typer.Option(0, "--seed", help="simulation seed"),
+) -> None:
+    """Simulate uneven bars seen by two opposite cameras; compare the cascade with triangulation."""
+    from gymtrack.eval.metrics import average_euclidean_distance, coverage
+    from gymtrack.formats.outputs import write_outputs
+    from gymtrack.simulate import simulate_routine
+    from gymtrack.tracking.tracker import track_detections
+
+    with console.status(f"simulating {seconds:g} s of uneven bars, two opposite cameras (seed {seed})"):
+        sim = simulate_routine("uneven_bars", n_cam=2, seed=seed, seconds=seconds)
+    if out is not None:
+        sim.write(Path(out) / "routine")
+    gt = sim.target_centre
+    ok = np.all(np.isfinite(gt), axis=1)
+    perf = sim.frames[sim.performing & ok]
+    plane = sim.scene.planes[0]
+    off = np.abs((gt[sim.performing & ok] - np.array(plane.point)) @ np.array(plane.normal))
+    results = {}
+    for mode in ("cascade", "triangulation"):
+        with console.status(f"tracking with {mode}"):
+            results[mode] = track_detections(sim.rig, sim.scene, sim.detections, mode=mode)
+        if out is not None:
+            write_outputs(results[mode], Path(out) / mode)
+    both = np.intersect1d(np.intersect1d(results["cascade"].target.frame, results["triangulation"].target.frame), perf)
+    t = Table(title="Target gymnast vs ground truth (performing frames)", title_justify="left")
+    for col in ("mode", "AED", "AED where both found it", "coverage", "switches", "frames/s"):
+        t.add_column(col, justify="right" if col != "mode" else "left")
+    for mode, res in results.items():
+        d = average_euclidean_distance(sim.frames[ok], gt[ok], res.target.frame, res.target.xyz, frames=perf)
+        dc = average_euclidean_distance(sim.frames[ok], gt[ok], res.target.frame, res.target.xyz, frames=both)
+        cov = coverage(perf, res.target.frame)
+        t.add_row(mode, f"{d.mean:.3f} m", f"{dc.mean:.3f} m ({dc.n})", f"{cov.share:.0%}",
+                  str(res.summary["target_switches"]), f"{res.summary['fps']:.0f}")
+    console.print(
+        f"{sim.n_frames} frames, {len(sim.detections)} detections in {len(sim.rig)} views; only the opposite pair "
+        f"{sim.rig.names[0]}/{sim.rig.names[1]} detects the gymnast, who stays a median "
+        f"{np.median(off):.2f} m from the scene's plane."
+    )
+    console.print(t)
+    console.print(
+        "Triangulating two opposite views is ill-conditioned along the line between the cameras; the cascade "
+        "intersects their rays with the gymnast's plane instead (paper Section III-C). Its error grows with the "
+        "gymnast's distance from the plane (try other --seed values)."
+    )
+    if out is not None:
+        console.print(f"routine and results written to [bold]{out}[/]")

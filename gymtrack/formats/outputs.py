@@ -1,0 +1,137 @@
+"""Writing (and reading back) the outputs of ``gymtrack track`` (``shared/formats.md``).
+
+::
+
+    <out>/
+      tracks_3d.csv              frame,track_id,x,y,z,top_z,bottom_z,source,n_views
+      tracks_2d/<camera>.txt     MOTChallenge result lines; the id is the 3D track id
+      target_3d.csv              frame,track_id,x,y,z,source
+      target_2d/<camera>.txt     MOTChallenge lines of the target's expanded box b_buf (Eq. 14)
+      summary.json               counts, timings, frames per second
+
+CSV files have a header line; numbers are metres with 4 decimals, pixels with 2. Unknown
+heights are written empty. Frame numbers are the input's.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import numpy as np
+
+from ..detections import Detections
+from ..errors import InputError
+from .motchallenge import write_mot
+
+TRACKS_3D_COLUMNS = ("frame", "track_id", "x", "y", "z", "top_z", "bottom_z", "source", "n_views")
+TARGET_3D_COLUMNS = ("frame", "track_id", "x", "y", "z", "source")
+
+
+def _fmt(values: np.ndarray, digits: int) -> list[str]:
+    return ["" if not np.isfinite(v) else f"{v:.{digits}f}" for v in values]
+
+
+def _write_csv(path: Path, header: tuple[str, ...], columns: list[list]) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(header)
+        w.writerows(zip(*columns))
+    return path
+
+
+def write_tracks_3d(path: str | Path, tracks) -> Path:
+    """``tracks_3d.csv`` from a :class:`gymtrack.tracking.types.Tracks3D`."""
+    t = tracks
+    return _write_csv(Path(path), TRACKS_3D_COLUMNS, [
+        t.frame.tolist(), t.track_id.tolist(), _fmt(t.xyz[:, 0], 4), _fmt(t.xyz[:, 1], 4), _fmt(t.xyz[:, 2], 4),
+        _fmt(t.top_z, 4), _fmt(t.bottom_z, 4), t.source_name.tolist(), t.n_views.tolist(),
+    ])
+
+
+def write_target_3d(path: str | Path, target) -> Path:
+    """``target_3d.csv`` from a :class:`gymtrack.tracking.types.Target`."""
+    t = target
+    return _write_csv(Path(path), TARGET_3D_COLUMNS, [
+        t.frame.tolist(), t.track_id.tolist(), _fmt(t.xyz[:, 0], 4), _fmt(t.xyz[:, 1], 4), _fmt(t.xyz[:, 2], 4),
+        t.source_name.tolist(),
+    ])
+
+
+def write_boxes_per_camera(folder: str | Path, boxes: Detections) -> list[Path]:
+    """One MOTChallenge file per camera (``<folder>/<camera>.txt``, also for cameras without boxes)."""
+    folder = Path(folder)
+    out = []
+    for c, name in enumerate(boxes.camera_names):
+        d = boxes.select(boxes.camera == c)
+        out.append(write_mot(folder / f"{name}.txt", d.frame, d.track_id, d.box, conf=d.score))
+    return out
+
+
+def write_outputs(result, out: str | Path) -> dict[str, Path]:
+    """Write every output of a :class:`gymtrack.tracking.types.TrackResult` under ``out``.
+
+    Returns the paths written, by name.
+    """
+    out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise InputError("the output path exists and is not a folder", source=out)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = {
+        "tracks_3d": write_tracks_3d(out / "tracks_3d.csv", result.tracks),
+        "target_3d": write_target_3d(out / "target_3d.csv", result.target),
+    }
+    write_boxes_per_camera(out / "tracks_2d", result.boxes)
+    write_boxes_per_camera(out / "target_2d", result.target_boxes)
+    paths["tracks_2d"] = out / "tracks_2d"
+    paths["target_2d"] = out / "target_2d"
+    summary = out / "summary.json"
+    summary.write_text(json.dumps(result.summary, indent=2) + "\n")
+    paths["summary"] = summary
+    return paths
+
+
+def read_tracks_3d(path: str | Path) -> dict[str, np.ndarray]:
+    """Read ``tracks_3d.csv`` back into columns (frame, track_id, xyz (N,3), top_z, bottom_z, source, n_views)."""
+    return _read_csv(Path(path), TRACKS_3D_COLUMNS)
+
+
+def read_target_3d(path: str | Path) -> dict[str, np.ndarray]:
+    """Read ``target_3d.csv`` back into columns (frame, track_id, xyz (N,3), source)."""
+    return _read_csv(Path(path), TARGET_3D_COLUMNS)
+
+
+def _read_csv(path: Path, columns: tuple[str, ...]) -> dict[str, np.ndarray]:
+    try:
+        with open(path, newline="") as fh:
+            rows = list(csv.reader(fh))
+    except FileNotFoundError:
+        raise InputError("file not found", source=path) from None
+    if not rows or tuple(rows[0]) != columns:
+        raise InputError(f"expected the header {','.join(columns)}", source=path, line=1)
+    body = rows[1:]
+    for i, r in enumerate(body):
+        if len(r) != len(columns):
+            raise InputError(f"expected {len(columns)} values, got {len(r)}", source=path, line=i + 2)
+    col = {name: [r[j] for r in body] for j, name in enumerate(columns)}
+
+    def num(name, dtype=np.float64):
+        try:
+            return np.array([float(v) if v != "" else np.nan for v in col[name]], dtype=dtype)
+        except ValueError as exc:
+            raise InputError(f"column {name!r}: {exc}", source=path) from None
+
+    out = {
+        "frame": num("frame").astype(np.int64),
+        "track_id": num("track_id").astype(np.int64),
+        "xyz": np.column_stack([num("x"), num("y"), num("z")]) if body else np.zeros((0, 3)),
+        "source": np.array(col["source"], dtype=object),
+    }
+    for extra in ("top_z", "bottom_z"):
+        if extra in columns:
+            out[extra] = num(extra)
+    if "n_views" in columns:
+        out["n_views"] = num("n_views").astype(np.int64)
+    return out

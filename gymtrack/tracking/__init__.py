@@ -1,0 +1,26 @@
+"""The gymnast tracker of paper Section III, one module per stage.
+
+* :mod:`.single_view`     IoU tracker per camera, global assignment (III-A)
+* :mod:`.windows`         overlapping windows, interpolation of segments (III-A)
+* :mod:`.undistort`       fast undistortion of box corners (OpenCV on a grid, bilinear lookups)
+* :mod:`.clustering`      Eq. 1-2 distances and Algorithm 1 (III-B)
+* :mod:`.reconstruct`     triangulation (Eq. 3), opposite views, outliers (Eq. 4) (III-B/C)
+* :mod:`.plane_fallback`  ray-plane candidates and their matching (Eq. 5-9) (III-C)
+* :mod:`.linking`         cross-window linking (Eq. 10-12) (III-B)
+* :mod:`.target`          target identification, smoothing, pose boxes (Eq. 13-14) (III-D)
+* :mod:`.tracker`         the streaming :class:`Tracker` and the offline runners
+* :mod:`.types`           the columnar types of every level
+"""
+
+from .clustering import complete_linkage, tracklet_distances
+from .tracker import ASSOCIATIONS, MODES, Tracker, track_detections, track_routine
+from .types import (
+    INTERPOLATED, PLANE, SOURCE_NAMES, TRIANGULATION, Target, TrackerOutput, Tracks3D, TrackResult, WindowTracklets,
+    WindowTracklets3D,
+)
+
+__all__ = [
+    "Tracker", "track_detections", "track_routine", "MODES", "ASSOCIATIONS", "complete_linkage", "tracklet_distances",
+    "Tracks3D", "Target", "TrackerOutput", "TrackResult", "WindowTracklets", "WindowTracklets3D",
+    "TRIANGULATION", "PLANE", "INTERPOLATED", "SOURCE_NAMES",
+]

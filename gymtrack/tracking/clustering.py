@@ -1,0 +1,159 @@
+"""Cross-view clustering of 2D tracklets (paper Section III-B, Eq. 1-2 and Algorithm 1).
+
+Two pieces, both pure functions:
+
+* :func:`tracklet_distances`: Eq. 2, the mean over the shared frames of the normalised
+  symmetric epipolar distance of box centres (Eq. 1) between every pair of segments of a
+  window, computed as one (K, K, W) tensor.
+* :func:`complete_linkage`: Algorithm 1, complete-linkage agglomerative clustering in which an
+  *unknown* distance (NaN: two tracklets that share no frame) does not block a merge, and an
+  infinite one (two tracklets of one camera) always does. Reused for the plane candidates
+  (Eq. 8).
+
+Shared frames (the paper's ``Psi_i  cap  Psi_j``) are the frames where *both* segments were
+actually observed: interpolated or extrapolated boxes would only repeat their neighbours'
+evidence, and counting them would make disjoint tracklets look comparable. Two tracklets of
+one camera never share a cluster (distance inf whether or not their frames overlap), so a
+cluster has at most one segment per view; cut-off 2D tracks are repaired by cross-window
+linking instead.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .types import WindowTracklets
+
+
+def complete_linkage(D: np.ndarray, threshold: float) -> np.ndarray:
+    """Algorithm 1: modified complete-linkage clustering.
+
+    Parameters
+    ----------
+    D: (K, K) symmetric distances; NaN = unknown (no evidence either way), inf = forbidden.
+        The diagonal is ignored.
+    threshold: merge while some pair of clusters is strictly closer than this (lambda).
+
+    Returns
+    -------
+    (K,) int cluster labels ``0 .. n-1``, numbered in order of each cluster's first member.
+
+    Algorithm 1 merges the closest pair of clusters while it is closer than ``threshold``; the
+    merged cluster's distance to a cluster ``q`` is ``max(D[i,q], D[j,q])`` when both are known,
+    the known one when only one is, unknown when neither is -- exactly ``numpy.fmax``. Since
+    ``max(x, inf) = inf`` a forbidden pair stays forbidden after any merge.
+
+    The linkage is reducible (a merged distance is never below both of its members'
+    distances, unknown counting as +inf), so merges happen in non-decreasing distance and
+    every pair of reciprocal nearest neighbours merges eventually, independently of the
+    others: each round merges all such pairs below the threshold at once (Murtagh's
+    reciprocal-nearest-neighbour scheme). The clusters are those of the one-merge-at-a-time
+    loop (:func:`complete_linkage_sequential`, kept as the literal reference; ties aside) in a
+    handful of vectorised rounds instead of one round per merge.
+    """
+    S = np.array(D, dtype=np.float64)
+    K = S.shape[0]
+    owner = np.arange(K)
+    if K >= 2:
+        np.fill_diagonal(S, np.nan)
+        idx = np.arange(K)
+        while True:
+            W = np.where(np.isnan(S), np.inf, S)  # unknown is never the closest pair
+            nn = np.argmin(W, axis=1)
+            d = W[idx, nn]
+            I = np.flatnonzero((nn[nn] == idx) & (idx < nn) & (d < threshold))
+            if len(I) == 0:
+                if not d.min() < threshold:
+                    break
+                I = np.array([int(np.argmin(d))])  # exact ties without a reciprocal pair
+            J = nn[I]
+            S[I] = np.fmax(S[I], S[J])  # Algorithm 1's update, rows then columns
+            S[:, I] = np.fmax(S[:, I], S[:, J])
+            S[J] = np.nan
+            S[:, J] = np.nan
+            S[I, I] = np.nan
+            relabel = idx.copy()
+            relabel[J] = I
+            owner = relabel[owner]
+    _, first, inv = np.unique(owner, return_index=True, return_inverse=True)
+    return np.argsort(np.argsort(first))[inv]  # renumber by first member
+
+
+def complete_linkage_sequential(D: np.ndarray, threshold: float, merges: list | None = None) -> np.ndarray:
+    """Algorithm 1 literally, one merge per step (the closest pair, ties: first in row-major
+    order). Same inputs and labels as :func:`complete_linkage`; slower, kept as the reference.
+
+    merges: if a list is given, each merge is appended as ``(i, j, distance)``: the clusters are
+    named by their smallest original member (``j`` joins ``i``)."""
+    S = np.array(D, dtype=np.float64)
+    K = S.shape[0]
+    owner = np.arange(K)
+    if K >= 2:
+        np.fill_diagonal(S, np.nan)
+        while True:
+            W = np.where(np.isnan(S), np.inf, S)
+            i, j = divmod(int(np.argmin(W)), K)
+            if not W[i, j] < threshold:
+                break
+            if merges is not None:
+                merges.append((int(i), int(j), float(W[i, j])))
+            merged = np.fmax(S[i], S[j])
+            S[i], S[:, i] = merged, merged
+            S[j], S[:, j] = np.nan, np.nan
+            S[i, i] = np.nan
+            owner[owner == j] = i
+    _, first, inv = np.unique(owner, return_index=True, return_inverse=True)
+    return np.argsort(np.argsort(first))[inv]
+
+
+def tracklet_distances(segs: WindowTracklets, F: np.ndarray) -> np.ndarray:
+    """Eq. 2: the cross-view distance of every pair of 2D tracklet segments of a window.
+
+    Parameters
+    ----------
+    segs: K segments sorted by camera (as :func:`.windows.build_window` gives them); boxes in
+        undistorted pixels.
+    F: (C, C, 3, 3) fundamental matrices, ``F[i, j]`` maps points of view i to lines in view j
+        (:func:`gymtrack.geometry.epipolar.fundamental_matrices`).
+
+    Returns
+    -------
+    (K, K) distances: the mean over shared observed frames of Eq. 1 (dimensionless); NaN
+    where two segments share no observed frame; inf for two segments of one camera.
+
+    Cost: the epipolar line of every centre in every view is computed once (one batched
+    product, (K, C, W) lines, :func:`gymtrack.geometry.epipolar.epipolar_lines`' convention);
+    the point-line distances of all pairs are then one product per view.
+    """
+    K, W = segs.observed.shape
+    cam = segs.camera
+    if K == 0:
+        return np.zeros((0, 0))
+    C = F.shape[0]
+    obs = segs.observed
+    # homogeneous centres, all-zero where not observed (their distances vanish), each divided by
+    # its box's |w + h| (Eq. 1's normalisation of the distance measured in that box's view)
+    xh = np.concatenate([segs.box[..., :2], np.ones((K, W, 1))], axis=2)
+    xh[~obs] = 0.0
+    xh /= np.where(obs, np.abs(segs.box[..., 2] + segs.box[..., 3]), 1.0)[..., None]
+    xt = xh.transpose(1, 2, 0)  # (W, 3, K)
+    # lines[c, t, k]: epipolar line in view c of segment k's centre at frame t
+    lines = (F[cam].reshape(K, 3 * C, 3) @ xh.transpose(0, 2, 1)).reshape(K, C, 3, W).transpose(1, 3, 0, 2)
+    # E[t, i, j]: distance in view j of segment j's centre from segment i's line (0 unless both observed)
+    E = np.empty((W, K, K))
+    bounds = np.searchsorted(cam, np.arange(C + 1))  # segments are sorted by camera
+    for c in range(C):
+        a, b = bounds[c], bounds[c + 1]
+        if b > a:
+            L = lines[c]  # (W, K, 3)
+            norm = np.hypot(L[..., 0], L[..., 1])
+            E[:, :, a:b] = (L / np.where(norm > 0, norm, 1.0)[..., None]) @ xt[:, :, a:b]
+    np.abs(E, out=E)
+    S = E.sum(axis=0)
+    obsf = obs.astype(np.float64)
+    n = obsf @ obsf.T  # shared observed frames
+    with np.errstate(invalid="ignore", divide="ignore"):
+        D = (S + S.T) / n  # Eq. 1 is the sum of the two one-way terms
+    D[n == 0] = np.nan
+    D[cam[:, None] == cam[None, :]] = np.inf
+    return D

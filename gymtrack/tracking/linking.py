@@ -1,0 +1,96 @@
+"""Cross-window linking of 3D tracklets (paper Section III-B, Eq. 10-12).
+
+Consecutive windows overlap by half a window. A 3D tracklet of the new window continues a
+track of the previous window when their mean distance over the overlapping frames where both
+are valid (Eq. 10) wins a linear assignment (Eq. 11, ``linear_sum_assignment``) and is at
+most ``link_3d`` metres (paper: 0.6; larger bridges noisier estimates but may swap two people
+standing close). Unlinked tracklets start new tracks. The merge of Eq. 12 -- the overlap
+averaged -- happens when the frames are made final (:mod:`.tracker`), where every frame's
+estimates of one track from the two windows covering it are averaged.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from .types import Tracks3D
+
+
+def link_distances(
+    prev_xyz: np.ndarray,
+    prev_valid: np.ndarray,
+    new_xyz: np.ndarray,
+    new_valid: np.ndarray,
+    offset: int,
+) -> np.ndarray:
+    """Eq. 10: mean 3D distance of every (previous, new) tracklet pair over the overlap.
+
+    prev_xyz: (Mp, W, 3), prev_valid: (Mp, W): the previous window's tracklets;
+    new_xyz: (Mn, W, 3), new_valid: (Mn, W): the new window's, which starts ``offset`` frames
+    later (the step). Returns (Mp, Mn) metres; NaN where the pair shares no valid frame.
+    """
+    Wo = prev_xyz.shape[1] - offset
+    a, av = prev_xyz[:, offset:], prev_valid[:, offset:]
+    b, bv = new_xyz[:, :Wo], new_valid[:, :Wo]
+    both = av[:, None] & bv[None]  # (Mp, Mn, Wo)
+    d = np.linalg.norm(a[:, None] - b[None], axis=-1)
+    n = both.sum(axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        D = np.where(both, d, 0.0).sum(axis=-1) / n
+    D[n == 0] = np.nan
+    return D
+
+
+def link(D: np.ndarray, gate: float) -> tuple[np.ndarray, np.ndarray]:
+    """Eq. 11: minimum-cost one-to-one assignment of rows to columns among pairs with ``D <= gate``.
+
+    D: (Mp, Mn), NaN = cannot link. Returns (rows, cols) of the links.
+    """
+    allowed = np.isfinite(D) & (D <= gate)
+    if not allowed.any():
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
+    rows = np.flatnonzero(allowed.any(axis=1))
+    cols = np.flatnonzero(allowed.any(axis=0))
+    sub = allowed[np.ix_(rows, cols)]
+    # a disallowed pair costs more than any set of allowed ones could save
+    big = 2.0 * gate * (min(len(rows), len(cols)) + 1) + 1.0
+    cost = np.where(sub, D[np.ix_(rows, cols)], big)
+    r, c = linear_sum_assignment(cost)
+    keep = sub[r, c]
+    return rows[r[keep]], cols[c[keep]]
+
+
+def merge_overlaps(
+    frame: np.ndarray,
+    track_id: np.ndarray,
+    xyz: np.ndarray,
+    top_z: np.ndarray,
+    bottom_z: np.ndarray,
+    source: np.ndarray,
+    n_views: np.ndarray,
+) -> Tracks3D:
+    """Eq. 12: one point per (frame, track) from the estimates of the windows covering it.
+
+    All arguments are (N,) rows (``xyz`` (N, 3)), one per window estimate; estimates of the same
+    (frame, track) -- a frame in the overlap of two linked tracklets -- are averaged (heights
+    over the known ones). The merged source is the best of the parts (triangulation <
+    plane < interpolated), ``n_views`` the largest. Returns rows sorted by (frame, track_id).
+    """
+    if len(frame) == 0:
+        return Tracks3D.empty()
+    order = np.lexsort((track_id, frame))
+    frame, track_id, xyz, top_z, bottom_z, source, n_views = (
+        c[order] for c in (frame, track_id, xyz, top_z, bottom_z, source, n_views))
+    start = np.flatnonzero(np.r_[True, (np.diff(frame) != 0) | (np.diff(track_id) != 0)])
+    count = np.diff(np.r_[start, len(frame)])
+
+    def mean(v):
+        ok = np.isfinite(v)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.add.reduceat(np.where(ok, v, 0.0), start) / np.add.reduceat(ok.astype(np.float64), start)
+
+    return Tracks3D(
+        frame[start], track_id[start], np.add.reduceat(xyz, start) / count[:, None], mean(top_z), mean(bottom_z),
+        np.minimum.reduceat(source, start).astype(np.int8), np.maximum.reduceat(n_views, start).astype(np.int8),
+    )

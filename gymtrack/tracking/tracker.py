@@ -1,0 +1,543 @@
+"""The streaming gymnast tracker (paper Section III, Fig. 2) and its offline runner.
+
+:class:`Tracker` is fed one frame of boxes (all views) at a time and returns what became final:
+
+1. single view (III-A): one IoU tracker per camera links boxes into 2D tracks (raw pixels);
+2. windows (III-A): every ``step = window // 2`` frames the boxes received since the last
+   window are undistorted (:mod:`.undistort`; the geometric stages work in undistorted pixels,
+   the outputs keep the raw boxes) and the 2D tracks are cut into the window of the last
+   ``window`` frames (:mod:`.windows`);
+3. cross-view clustering (III-B): Eq. 2 distances and Algorithm 1 (:mod:`.clustering`);
+4. triangulation (III-B, Eq. 3) of clusters of >= 2 views that are not just an opposite pair
+   (judged at the performance-space centre), and the outlier test (Eq. 4) (:mod:`.reconstruct`);
+5. the cascade (III-C): the rest go to the vertical plane, Eq. 5-9 (:mod:`.plane_fallback`);
+6. cross-window linking (III-B, Eq. 10-12) (:mod:`.linking`), carrying the 2D boxes along;
+7. the heights of the body's top and bottom, from the box tops and bottoms by the same method;
+8. the target gymnast (III-D, Eq. 13-14) (:mod:`.target`).
+
+Latency: a frame's track points and boxes are final once the second window covering it has
+been processed, i.e. ``window - 1`` frames after it arrives (9 frames with the paper's window);
+the target adds the smoothing half-window (2 frames), more only at the end of a target segment
+(see :class:`~.target.TargetSmoother`). Memory is bounded on an endless stream: the tracker
+keeps only live 2D tracks, the boxes of frames not yet final, the previous window's 3D
+tracklets, the 3D records of frames not yet final and the target's last ``identify_frames``
+frames (:meth:`Tracker.state_size`).
+
+Modes (the paper's ablation, Table 4): ``cascade`` (the method), ``triangulation`` (no plane
+fallback; single-tracklet clusters are dropped and opposite pairs triangulated -- close to
+UniMMT), ``plane`` (every segment goes to the plane stage). ``association="oracle"`` replaces
+the IoU tracker and Algorithm 1 by ground-truth ids carried in ``Detections.track_id`` (>= 0;
+-1 = a false positive, dropped and counted): the limit better association could reach. The
+plane stage then still applies its own Eq. 8 test, within each ground-truth person only.
+
+Speed (``benchmarks/bench_tracker.py``): every stage works on whole windows of columns; the
+per-frame work is one IoU matrix and, when needed, one assignment. What is skipped is counted
+in :meth:`Tracker.summary`.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import defaultdict
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from ..detections import Detections
+from ..errors import InputError
+from ..formats.scene import Scene
+from ..geometry.camera import Rig
+from ..geometry.epipolar import fundamental_matrices
+from ..geometry.plane import Plane
+from ..geometry.views import opposite_pairs
+from .clustering import complete_linkage, tracklet_distances
+from .linking import link, link_distances, merge_overlaps
+from .plane_fallback import plane_stage
+from .reconstruct import cluster_members, opposite_clusters, outliers, triangulate_clusters
+from .single_view import IoUTracker
+from .target import TargetSelector, TargetSmoother, buffered_boxes, identify_indicator
+from .types import Target, TrackerOutput, Tracks3D, TrackResult, WindowTracklets, WindowTracklets3D
+from .undistort import UndistortTables
+from .windows import build_window
+
+MODES = ("cascade", "triangulation", "plane")
+ASSOCIATIONS = ("iou", "oracle")
+STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
+
+
+class Tracker:
+    """Streaming multi-camera gymnast tracker.
+
+    Parameters
+    ----------
+    rig: the cameras; ``Detections.camera`` indexes it.
+    scene: performance space, buffer, planes, target heights and every parameter (``scene.params``).
+    mode: ``cascade`` | ``triangulation`` | ``plane`` (see the module docstring).
+    association: ``iou`` (the method) | ``oracle`` (ground-truth ids in ``track_id``).
+
+    Use: ``out = tracker.update(frame, detections_of_that_frame)`` for increasing frame
+    numbers (frames without boxes may be skipped), then ``tracker.finish()``; every call
+    returns a :class:`TrackerOutput` of what became final.
+    """
+
+    def __init__(self, rig: Rig, scene: Scene, mode: str = "cascade", association: str = "iou"):
+        if mode not in MODES:
+            raise InputError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}", field="mode")
+        if association not in ASSOCIATIONS:
+            raise InputError(f"unknown association {association!r}; choose one of {', '.join(ASSOCIATIONS)}",
+                             field="association")
+        if mode != "triangulation" and not scene.planes:
+            raise InputError(f"mode {mode!r} needs at least one plane in scene.yaml (planes:)", field="planes")
+        self.rig, self.scene, self.mode, self.association = rig, scene, mode, association
+        p = self.params = scene.params
+        self.width, self.step = p.window, p.step
+        self.n_cameras = len(rig)
+        self.names = rig.names
+        self.F = fundamental_matrices(rig)
+        self.P = rig.projections
+        self.centres = rig.centres
+        self.planes = [Plane.from_spec(s) for s in scene.planes]
+        self.space = np.asarray(scene.tracking_space, dtype=np.float64)
+        self.perf = np.asarray(scene.performance_space, dtype=np.float64)
+        self.perf_centre = (self.perf[:3] + self.perf[3:]) / 2
+        # (C, C) opposite camera pairs, judged at the performance-space centre (see reconstruct)
+        self.opposite = opposite_pairs(rig, self.perf_centre, p.opposite_angle_deg)
+        self._undist = UndistortTables(rig) if any(cam.has_distortion for cam in rig) else None
+        self.iou = IoUTracker(p.iou_threshold, p.max_age)
+        self.selector = TargetSelector(p.identify_frames)
+        self.smoother = TargetSmoother(p.max_gap)
+        self._box_memory: dict = {}
+        # stream position
+        self.first_frame: int | None = None
+        self.last_frame: int | None = None
+        self.final_frame: int | None = None  # every frame <= this is final
+        self._next_start: int | None = None
+        self._window_index = 0
+        self._finished = False
+        # boxes: chunks not yet undistorted, and the table of frames not yet final
+        self._pending: list[tuple] = []
+        self._table = self._empty_table()
+        self._det_counter = 0
+        # 3D state
+        self._prev: WindowTracklets3D | None = None
+        self._next_track_id = 0
+        self._track_last: dict[int, int] = {}  # live track -> last valid frame
+        self._ended: dict[int, int] = {}  # ended track -> last frame (kept identify_frames)
+        self._rec3d: list[tuple] = []
+        self._rec2d: list[tuple] = []
+        self._out: list[TrackerOutput] = []
+        # counters
+        self.timings = dict.fromkeys(STAGES, 0.0)
+        self.counts: dict = defaultdict(int)
+        self.read = np.zeros(self.n_cameras, np.int64)
+        self.used = np.zeros(self.n_cameras, np.int64)
+        self.false_positives = np.zeros(self.n_cameras, np.int64)
+
+    # ================================================================ public API
+    def update(self, frame: int, detections: Detections) -> TrackerOutput:
+        """Feed the boxes of one frame (all views); returns what became final."""
+        if self._finished:
+            raise RuntimeError("this Tracker has finished; create a new one")
+        frame = int(frame)
+        if self.last_frame is not None and frame <= self.last_frame:
+            raise InputError(f"frames must increase: got frame {frame} after {self.last_frame}", field="frame")
+        if tuple(detections.camera_names) != self.names:
+            raise InputError(f"detections are of cameras {list(detections.camera_names)}, the rig has {list(self.names)}",
+                             field="camera_names")
+        if len(detections) and np.any(detections.frame != frame):
+            bad = int(detections.frame[detections.frame != frame][0])
+            raise InputError(f"update({frame}, ...) got a box of frame {bad}", field="frame")
+        if len(detections) and (detections.camera.min() < 0 or detections.camera.max() >= self.n_cameras):
+            raise InputError(f"camera index outside 0..{self.n_cameras - 1}", field="camera")
+        self._ingest(frame, detections.camera.astype(np.int64), detections.box, detections.score, detections.track_id)
+        return self._collect()
+
+    def finish(self) -> TrackerOutput:
+        """Flush: process the remaining windows and make every frame final."""
+        if self._finished:
+            return TrackerOutput.empty(self.names)
+        self._finished = True
+        if self.last_frame is not None:
+            while self._next_start <= self.last_frame:
+                self._process_window(self._next_start)
+            self._finalise(self.last_frame)
+            t0 = time.perf_counter()
+            self._emit_target(self.smoother.close())
+            self.timings["target"] += time.perf_counter() - t0
+        return self._collect()
+
+    def state_size(self) -> int:
+        """Number of stored rows/items over all internal state (for checking bounded memory)."""
+        n = len(self.iou) + sum(len(c[1]) for c in self._pending) + len(self._table["frame"])
+        n += sum(len(r[0]) for r in self._rec3d) + sum(len(r[0]) for r in self._rec2d)
+        n += 0 if self._prev is None else self._prev.valid.size
+        n += len(self._track_last) + len(self._ended) + len(self.selector) + len(self.smoother)
+        return n
+
+    def summary(self) -> dict:
+        """Counts and timings so far: frames, detections read / used / dropped per camera,
+        tracks, target frames and switches, seconds per stage, frames per second."""
+        frames = 0 if self.first_frame is None else self.last_frame - self.first_frame + 1
+        total = sum(self.timings.values())
+        names = self.names
+        s = {
+            "mode": self.mode,
+            "association": self.association,
+            "frames": frames,
+            "first_frame": self.first_frame,
+            "last_frame": self.last_frame,
+            "detections_read": {n: int(v) for n, v in zip(names, self.read)},
+            "detections_used": {n: int(v) for n, v in zip(names, self.used)},
+            "tracks": int(self._next_track_id),  # every track has at least one point
+            "target_frames": int(self.counts["target_frames"]),
+            "target_switches": int(self.selector.switches),
+            "target_identifications": int(self.selector.identifications),
+            "windows": int(self.counts["windows"]),
+            "segments": int(self.counts["segments"]),
+            "segments_dropped_short": int(self.counts["segments_dropped_short"]),
+            "clusters_triangulated": int(self.counts["clusters_triangulated"]),
+            "segments_to_plane": int(self.counts["segments_to_plane"]),
+            "plane_tracklets": int(self.counts["plane_tracklets"]),
+            "segments_dropped_single": int(self.counts["segments_dropped_single"]),
+            "tracklets_outliers": int(self.counts["tracklets_outliers"]),
+            "links": int(self.counts["links"]),
+            "seconds": {k: round(v, 6) for k, v in self.timings.items()},
+            "seconds_total": round(total, 6),
+            "fps": round(frames / total, 1) if total > 0 else None,
+        }
+        if self.association == "oracle":
+            s["detections_dropped_false_positive"] = {n: int(v) for n, v in zip(names, self.false_positives)}
+            s["detections_dropped_duplicate"] = int(self.counts["duplicates"])
+        return s
+
+    # ================================================================ ingest (stage 1)
+    def _ingest(self, frame: int, camera: np.ndarray, box: np.ndarray, score: np.ndarray, ident: np.ndarray) -> None:
+        if self.first_frame is None:
+            self.first_frame = self._next_start = frame
+            self.final_frame = frame - 1
+        # windows that end before this frame can get no more boxes
+        while self._next_start + self.width - 1 < frame:
+            skip = (frame - self.width - self._next_start) // self.step  # windows wholly before frame - 1
+            if skip > 2 and self._idle():  # a long pause with nothing buffered: jump over empty windows
+                self._next_start += (skip - 1) * self.step
+                self._prev = None
+                self._finalise(self._next_start - 1)
+                continue
+            self._process_window(self._next_start)
+        t0 = time.perf_counter()
+        self.last_frame = frame
+        box = np.asarray(box, dtype=np.float64)
+        if self.association == "iou":
+            track2d = self.iou.update(frame, camera, box)
+        else:
+            self.read += np.bincount(camera, minlength=self.n_cameras)  # (iou: counted per window)
+            keep = ident >= 0
+            if not keep.all():
+                self.false_positives += np.bincount(camera[~keep], minlength=self.n_cameras)
+            camera, box, score, ident = camera[keep], box[keep], score[keep], ident[keep]
+            track2d = ident * self.n_cameras + camera
+            _, first = np.unique(track2d, return_index=True)
+            if len(first) < len(track2d):  # one box per person and view
+                self.counts["duplicates"] += len(track2d) - len(first)
+                first = np.sort(first)
+                camera, box, score, track2d = camera[first], box[first], score[first], track2d[first]
+        self._pending.append((frame, camera, track2d, box, score))  # frame numbers and ids added per window
+        self.timings["single_view"] += time.perf_counter() - t0
+        if self._next_start + self.width - 1 == frame:
+            self._process_window(self._next_start)
+
+    def _idle(self) -> bool:
+        """Nothing buffered that a window could still use (no boxes, tracklets or pending records)."""
+        return (not self._pending and not np.any(self._table["frame"] >= self._next_start)
+                and (self._prev is None or len(self._prev) == 0) and not self._rec3d and not self._rec2d)
+
+    @staticmethod
+    def _empty_table() -> dict:
+        return {"frame": np.zeros(0, np.int64), "camera": np.zeros(0, np.int64), "track2d": np.zeros(0, np.int64),
+                "raw": np.zeros((0, 4)), "score": np.zeros(0, np.float32), "det": np.zeros(0, np.int64),
+                "ubox": np.zeros((0, 4))}
+
+    def _undistort(self, camera: np.ndarray, box: np.ndarray) -> np.ndarray:
+        """Boxes to undistorted pixels: the top-left and bottom-right corners are undistorted
+        (:class:`~.undistort.UndistortTables`, OpenCV-exact to 0.05 px) and the box rebuilt from
+        them, so it keeps the person's extent in the ideal image."""
+        if self._undist is None or len(box) == 0:
+            return box.copy()
+        n = len(box)
+        corners = np.concatenate([box[:, :2] - box[:, 2:] / 2, box[:, :2] + box[:, 2:] / 2])
+        und = self._undist(np.concatenate([camera, camera]), corners)
+        tl, br = und[:n], und[n:]
+        return np.concatenate([(tl + br) / 2, br - tl], axis=1)
+
+    def _flush_pending(self, start: int) -> None:
+        """Undistort the boxes received since the last window and drop the final frames' boxes."""
+        t = self._table
+        keep = t["frame"] >= start
+        parts = [{k: v[keep] for k, v in t.items()}]
+        if self._pending:
+            frames, cams, tids, raws, scores = zip(*self._pending)
+            self._pending = []
+            c, tid, raw = np.concatenate(cams), np.concatenate(tids), np.concatenate(raws)
+            f = np.repeat(np.array(frames, np.int64), [len(x) for x in cams])
+            det = self._det_counter + np.arange(len(c))  # detection row ids, in arrival order
+            self._det_counter += len(c)
+            if self.association == "iou":
+                self.read += np.bincount(c, minlength=self.n_cameras)
+            parts.append({"frame": f, "camera": c, "track2d": tid, "raw": raw,
+                          "score": np.concatenate(scores).astype(np.float32), "det": det,
+                          "ubox": self._undistort(c, raw)})
+        self._table = {k: np.concatenate([p[k] for p in parts]) for k in t}
+
+    # ================================================================ one window (stages 2-6)
+    def _process_window(self, start: int) -> None:
+        p, W, C = self.params, self.width, self.n_cameras
+        clock = time.perf_counter
+        t0 = clock()
+        self._flush_pending(start)
+        t = self._table
+        segs, dropped = build_window(start, W, t["frame"], t["camera"], t["track2d"], t["ubox"], t["det"],
+                                     p.min_tracklet_boxes, p.max_age)
+        self.counts["windows"] += 1
+        self.counts["segments"] += len(segs)
+        self.counts["segments_dropped_short"] += dropped
+        t1 = clock()
+        self.timings["windows"] += t1 - t0
+
+        # stage 3: clusters of segments
+        if self.mode == "plane":
+            labels = None
+        elif self.association == "oracle":
+            labels = np.unique(segs.track2d // C, return_inverse=True)[1]
+        else:
+            labels = complete_linkage(tracklet_distances(segs, self.F), p.cluster_2d)
+        t2 = clock()
+        self.timings["clustering"] += t2 - t1
+
+        # stage 4: triangulation of multi-view clusters
+        parts = []
+        to_plane = np.arange(len(segs)) if labels is None else np.zeros(0, np.int64)
+        if labels is not None and len(segs):
+            members = cluster_members(labels, segs.camera, C)
+            multi = (members >= 0).sum(axis=1) >= 2
+            if self.mode == "cascade":  # single tracklets and opposite pairs go to the plane
+                fallback = ~multi | opposite_clusters(members, self.opposite)
+                back = members[fallback].ravel()
+                to_plane = np.sort(back[back >= 0])
+                multi &= ~fallback
+            else:
+                self.counts["segments_dropped_single"] += int(np.count_nonzero(~multi))
+            tri = triangulate_clusters(segs, members[multi], self.P)
+            bad = outliers(tri.xyz, tri.valid, self.space, p.max_speed)
+            self.counts["tracklets_outliers"] += int(bad.sum())
+            tri = tri.subset(~bad)
+            self.counts["clusters_triangulated"] += len(tri)
+            parts.append(tri)
+        t3 = clock()
+        self.timings["triangulation"] += t3 - t2
+
+        # stage 5: the plane fallback
+        if len(to_plane):
+            sub = segs.subset(to_plane)
+            plane_labels = None
+            if self.association == "oracle":
+                plane_labels = np.unique(sub.track2d // C, return_inverse=True)[1]
+            pl = plane_stage(sub, self.rig, self.planes, p.cluster_plane, plane_labels)
+            self.counts["segments_to_plane"] += len(to_plane)
+            if len(pl):
+                bad = outliers(pl.xyz, pl.valid, self.space, p.max_speed)
+                self.counts["tracklets_outliers"] += int(bad.sum())
+                pl = pl.subset(~bad)
+                members = np.where(pl.members >= 0, to_plane[np.maximum(pl.members, 0)], -1)  # index segs
+                pl = WindowTracklets3D(pl.start, pl.xyz, pl.top_z, pl.bottom_z, pl.valid, pl.source, pl.n_views,
+                                       members, pl.track_id)
+                self.counts["plane_tracklets"] += len(pl)
+                parts.append(pl)
+        t4 = clock()
+        self.timings["plane"] += t4 - t3
+
+        # stage 6: cross-window linking
+        cur = WindowTracklets3D.concat(parts) if parts else WindowTracklets3D.empty(start, W, C)
+        ids = np.full(len(cur), -1, np.int64)
+        prev = self._prev
+        if prev is not None and len(prev) and len(cur) and prev.start == start - self.step:
+            r, c = link(link_distances(prev.xyz, prev.valid, cur.xyz, cur.valid, self.step), p.link_3d)
+            ids[c] = prev.track_id[r]
+            self.counts["links"] += len(r)
+        new = ids < 0
+        ids[new] = self._next_track_id + np.arange(int(new.sum()))
+        self._next_track_id += int(new.sum())
+        cur = WindowTracklets3D(cur.start, cur.xyz, cur.top_z, cur.bottom_z, cur.valid, cur.source, cur.n_views,
+                                cur.members, ids)
+        self._record(cur, segs)
+        live = set(ids.tolist())
+        for tid in [k for k in self._track_last if k not in live]:
+            self._ended[tid] = self._track_last.pop(tid)
+        last = start + W - 1 - np.argmax(cur.valid[:, ::-1], axis=1)
+        self._track_last.update(zip(ids.tolist(), last.tolist()))
+        self._prev = cur
+        self._window_index += 1
+        self._next_start = start + self.step
+        self.timings["linking"] += clock() - t4
+        self._finalise(start + self.step - 1)
+
+    def _record(self, cur: WindowTracklets3D, segs: WindowTracklets) -> None:
+        """Keep the window's 3D points and member boxes until their frames are final."""
+        m, t = np.nonzero(cur.valid)
+        if len(m):
+            self._rec3d.append((cur.start + t, cur.track_id[m], cur.xyz[m, t], cur.top_z[m, t], cur.bottom_z[m, t],
+                                cur.source[m, t], cur.n_views[m, t]))
+        tm, tc = np.nonzero(cur.members >= 0)
+        if len(tm):
+            k = cur.members[tm, tc]
+            dets = segs.det[k]  # (n, W)
+            i, tt = np.nonzero(dets >= 0)
+            n = len(i)
+            self._rec2d.append((dets[i, tt], cur.start + tt, tc[i], cur.track_id[tm[i]],
+                                np.full(n, self._window_index, np.int64)))
+
+    # ================================================================ finalisation (Eq. 12, stages 7-8)
+    def _finalise(self, upto: int) -> None:
+        if upto <= self.final_frame:
+            return
+        t0 = time.perf_counter()
+        tracks = self._final_tracks(upto)
+        boxes = self._final_boxes(upto)
+        t1 = time.perf_counter()
+        self.timings["finalise"] += t1 - t0
+        target = self._select_target(self.final_frame + 1, upto, tracks, boxes)
+        self.final_frame = upto
+        self._out.append(TrackerOutput(tracks, boxes, *target))
+        self.timings["target"] += time.perf_counter() - t1
+
+    def _final_tracks(self, upto: int) -> Tracks3D:
+        """Eq. 12: every (frame, track) estimate from the windows covering the frame, averaged."""
+        if not self._rec3d:
+            return Tracks3D.empty()
+        cols = [np.concatenate(c) for c in zip(*self._rec3d)]
+        done = cols[0] <= upto
+        self._rec3d = [tuple(c[~done] for c in cols)] if not done.all() else []
+        out = merge_overlaps(*(c[done] for c in cols))
+        return out
+
+    def _final_boxes(self, upto: int) -> Detections:
+        """The tracks' boxes: per detection the latest window's track wins; one box per (frame, view, track)."""
+        if not self._rec2d:
+            return Detections.empty(self.names)
+        cols = [np.concatenate(c) for c in zip(*self._rec2d)]
+        done = cols[1] <= upto
+        self._rec2d = [tuple(c[~done] for c in cols)] if not done.all() else []
+        det, frame, cam, tid, win = (c[done] for c in cols)
+        order = np.argsort(-win, kind="stable")
+        det, frame, cam, tid = det[order], frame[order], cam[order], tid[order]
+        _, first = np.unique(det, return_index=True)
+        det, frame, cam, tid = det[first], frame[first], cam[first], tid[first]
+        key = (frame * self.n_cameras + cam) * (self._next_track_id + 1) + tid
+        _, first = np.unique(key, return_index=True)
+        det, frame, cam, tid = det[first], frame[first], cam[first], tid[first]
+        t = self._table
+        row = np.searchsorted(t["det"], det)
+        self.used += np.bincount(cam, minlength=self.n_cameras)
+        out = Detections.from_arrays(frame, cam, t["raw"][row], self.names, score=t["score"][row], track_id=tid)
+        return out.select(np.lexsort((out.track_id, out.camera, out.frame)))
+
+    def _select_target(self, a: int, b: int, tracks: Tracks3D, boxes: Detections) -> tuple[Target, Detections]:
+        """Eq. 13 for the final frames a..b, then gap filling, smoothing and Eq. 14 boxes."""
+        sc = self.scene
+        ind, inperf = identify_indicator(tracks.xyz, tracks.top_z, tracks.bottom_z, self.perf,
+                                         sc.target.h_top, sc.target.h_bot)
+        target = self.selector.select(a, b, tracks.frame, tracks.track_id, ind, inperf, self._ended)  # (b-a+1,)
+        emitted: list[tuple] = []
+        if np.any(target >= 0):
+            j = np.flatnonzero(tracks.track_id == target[tracks.frame - a])  # the target's point per frame
+            mine = boxes.track_id == target[boxes.frame - a]
+            ell = np.full((b - a + 1, self.n_cameras), np.nan)  # max(w, h) of its boxes per view
+            ell[boxes.frame[mine] - a, boxes.camera[mine]] = boxes.box[mine, 2:].max(axis=1)
+            for i in j.tolist():
+                f = int(tracks.frame[i])
+                emitted += self.smoother.push((f, int(tracks.track_id[i]), tracks.xyz[i], tracks.top_z[i],
+                                               tracks.bottom_z[i], int(tracks.source[i]), ell[f - a]))
+        emitted += self.smoother.advance(b)
+        # forget ended tracks that can no longer matter
+        horizon = b - self.params.identify_frames
+        for tid in [k for k, v in self._ended.items() if v < horizon and k != self.selector.target]:
+            del self._ended[tid]
+        return self._target_rows(emitted)
+
+    def _emit_target(self, emitted: list[tuple]) -> None:
+        if emitted:
+            self._out.append(TrackerOutput(Tracks3D.empty(), Detections.empty(self.names), *self._target_rows(emitted)))
+
+    def _target_rows(self, emitted: list[tuple]) -> tuple[Target, Detections]:
+        if not emitted:
+            return Target.empty(), Detections.empty(self.names)
+        frame = np.array([e[0] for e in emitted], np.int64)
+        tid = np.array([e[1] for e in emitted], np.int64)
+        xyz = np.stack([e[2] for e in emitted])
+        top = np.array([e[3] for e in emitted], np.float64)
+        bot = np.array([e[4] for e in emitted], np.float64)
+        src = np.array([e[5] for e in emitted], np.int8)
+        ell = np.stack([e[6] for e in emitted])
+        self.counts["target_frames"] += len(frame)
+        box, ok = buffered_boxes(self.rig, xyz, top, bot, ell, self.params.box_scale, self._box_memory)
+        n, c = np.nonzero(ok)
+        tb = Detections.from_arrays(frame[n], c, box[n, c], self.names, track_id=tid[n])
+        return Target(frame, tid, xyz, src), tb
+
+    def _collect(self) -> TrackerOutput:
+        out = TrackerOutput.concat(self._out, self.names) if len(self._out) != 1 else self._out[0]
+        self._out = []
+        return out
+
+
+# ==================================================================== offline runners
+def track_detections(
+    rig: Rig,
+    scene: Scene,
+    detections: Detections,
+    mode: str = "cascade",
+    association: str = "iou",
+    progress: Callable[[int, int], None] | None = None,
+) -> TrackResult:
+    """Run the streaming :class:`Tracker` over all frames of ``detections`` (offline use).
+
+    progress: optional ``progress(frames_done, frames_total)`` callback, called every ~100 frames.
+    """
+    tracker = Tracker(rig, scene, mode=mode, association=association)
+    det = detections.sorted()
+    if tuple(det.camera_names) != rig.names:
+        raise InputError(f"detections are of cameras {list(det.camera_names)}, the rig has {list(rig.names)}",
+                         field="camera_names")
+    outs = []
+    if len(det):
+        frames, first = np.unique(det.frame, return_index=True)
+        bounds = np.r_[first, len(det)]
+        total = int(frames[-1] - frames[0] + 1)
+        cam = det.camera.astype(np.int64)
+        for i, f in enumerate(frames.tolist()):
+            a, b = bounds[i], bounds[i + 1]
+            tracker._ingest(f, cam[a:b], det.box[a:b], det.score[a:b], det.track_id[a:b])
+            if tracker._out:
+                outs.append(tracker._collect())
+            if progress is not None and i % 100 == 0:
+                progress(int(f - frames[0] + 1), total)
+        if progress is not None:
+            progress(total, total)
+    outs.append(tracker.finish())
+    out = TrackerOutput.concat(outs, rig.names)
+    return TrackResult(out.tracks, out.boxes, out.target, out.target_boxes, rig.names, mode, tracker.summary())
+
+
+def track_routine(
+    routine,
+    mode: str = "cascade",
+    association: str = "iou",
+    progress: Callable[[int, int], None] | None = None,
+) -> TrackResult:
+    """Track a routine folder (path) or a loaded :class:`gymtrack.formats.routine.Routine`."""
+    if isinstance(routine, (str, Path)):
+        from ..formats.routine import load_routine
+
+        routine = load_routine(routine)
+    return track_detections(routine.rig, routine.scene, routine.detections, mode=mode, association=association,
+                            progress=progress)

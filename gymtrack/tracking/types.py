@@ -1,0 +1,292 @@
+"""Columnar types of the tracker, one per level of the pipeline (paper Section III).
+
+Every type is a frozen dataclass of parallel numpy arrays (one row per box, tracklet or
+point); no Python object per box. The levels, in pipeline order:
+
+* :class:`gymtrack.detections.Detections`  boxes of all views (III-A), the input;
+* :class:`WindowTracklets`  the 2D tracklet segments of one window (III-A), dense (K, W);
+* :class:`WindowTracklets3D`  the 3D tracklets of one window (III-B/C), dense (M, W);
+* :class:`Tracks3D`  final 3D track points (after cross-window linking, III-B), one row per
+  (frame, track);
+* :class:`Target`  the target gymnast's trajectory (III-D), one row per frame;
+* :class:`TrackerOutput`  what one call of the streaming tracker made final;
+* :class:`TrackResult`  a whole routine plus its summary.
+
+Source codes (``Tracks3D.source``, ``Target.source``): :data:`TRIANGULATION` (Eq. 3),
+:data:`PLANE` (ray-plane intersection, Eq. 7-9), :data:`INTERPOLATED` (no view actually
+observed the person at that frame: filled inside a window, or a target gap filled).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+from typing import Any, Sequence
+
+import numpy as np
+
+from ..detections import Detections
+
+TRIANGULATION, PLANE, INTERPOLATED = 0, 1, 2
+#: names written to the output files, indexed by source code
+SOURCE_NAMES: tuple[str, ...] = ("triangulation", "plane", "interpolated")
+
+
+def _concat_rows(cls, parts: Sequence[Any]):
+    """Concatenate dataclasses of parallel arrays row-wise (all array fields)."""
+    parts = [p for p in parts if p is not None]
+    if not parts:
+        return cls.empty()
+    return cls(**{f.name: np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(cls)})
+
+
+def _select_rows(obj, index):
+    return type(obj)(**{f.name: getattr(obj, f.name)[index] for f in fields(obj)})
+
+
+@dataclass(frozen=True, eq=False)
+class WindowTracklets:
+    """The 2D tracklet segments of one window (paper III-A), as dense arrays.
+
+    A window covers frames ``start .. start + W - 1``. Segment ``k`` is the part of one 2D
+    track (camera ``camera[k]``, id ``track2d[k]``) inside the window.
+
+    Attributes
+    ----------
+    start: first frame of the window.
+    camera: (K,) int, camera index.
+    track2d: (K,) int64, the 2D track id (unique over all cameras).
+    box: (K, W, 4) float64, centre-form boxes in *undistorted* pixels; NaN where not valid.
+    observed: (K, W) bool, a detection was there (else interpolated / extrapolated / none).
+    valid: (K, W) bool, ``box`` holds a value (observed, interpolated or extrapolated).
+    det: (K, W) int64, row id of the detection (tracker-wide counter); -1 where not observed.
+    """
+
+    start: int
+    camera: np.ndarray
+    track2d: np.ndarray
+    box: np.ndarray
+    observed: np.ndarray
+    valid: np.ndarray
+    det: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.camera)
+
+    @property
+    def width(self) -> int:
+        """W, frames per window."""
+        return self.box.shape[1]
+
+    @property
+    def frames(self) -> np.ndarray:
+        """(W,) frame numbers of the window."""
+        return self.start + np.arange(self.width)
+
+    def points(self, which: str = "centre") -> np.ndarray:
+        """(K, W, 2) box ``centre``, ``top`` (top-centre) or ``bottom`` (bottom-centre) points."""
+        b = self.box
+        if which == "centre":
+            return b[..., :2]
+        sign = -0.5 if which == "top" else 0.5
+        return np.stack([b[..., 0], b[..., 1] + sign * b[..., 3]], axis=-1)
+
+    def subset(self, index) -> "WindowTracklets":
+        return WindowTracklets(
+            self.start, self.camera[index], self.track2d[index], self.box[index], self.observed[index],
+            self.valid[index], self.det[index],
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class WindowTracklets3D:
+    """The 3D tracklets of one window (after triangulation or the plane fallback).
+
+    Attributes
+    ----------
+    start: first frame of the window.
+    xyz: (M, W, 3) centre positions, metres; NaN where not valid.
+    top_z, bottom_z: (M, W) heights of the body's top and bottom, metres (NaN when unknown).
+    valid: (M, W) bool.
+    source: (M, W) int8 source code per point.
+    n_views: (M, W) int8, views that observed the person at that frame.
+    members: (M, C) int, index into the window's :class:`WindowTracklets` of the segment each
+        camera contributed; -1 where the camera has none.
+    track_id: (M,) int64, filled by cross-window linking (-1 before).
+    """
+
+    start: int
+    xyz: np.ndarray
+    top_z: np.ndarray
+    bottom_z: np.ndarray
+    valid: np.ndarray
+    source: np.ndarray
+    n_views: np.ndarray
+    members: np.ndarray
+    track_id: np.ndarray
+
+    def __len__(self) -> int:
+        return self.xyz.shape[0]
+
+    @classmethod
+    def empty(cls, start: int, width: int, n_cameras: int) -> "WindowTracklets3D":
+        return cls(
+            start, np.zeros((0, width, 3)), np.zeros((0, width)), np.zeros((0, width)), np.zeros((0, width), bool),
+            np.zeros((0, width), np.int8), np.zeros((0, width), np.int8), np.zeros((0, n_cameras), np.int64),
+            np.zeros(0, np.int64),
+        )
+
+    @classmethod
+    def concat(cls, parts: Sequence["WindowTracklets3D"]) -> "WindowTracklets3D":
+        p0 = parts[0]
+        return cls(
+            p0.start, *(np.concatenate([getattr(p, n) for p in parts]) for n in
+                        ("xyz", "top_z", "bottom_z", "valid", "source", "n_views", "members", "track_id")),
+        )
+
+    def subset(self, index) -> "WindowTracklets3D":
+        return WindowTracklets3D(
+            self.start, self.xyz[index], self.top_z[index], self.bottom_z[index], self.valid[index], self.source[index],
+            self.n_views[index], self.members[index], self.track_id[index],
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class Tracks3D:
+    """Final 3D track points, one row per (frame, track), sorted by (frame, track_id).
+
+    Attributes
+    ----------
+    frame: (N,) int64, the input's frame numbers.
+    track_id: (N,) int64.
+    xyz: (N, 3) centre, metres, world frame.
+    top_z, bottom_z: (N,) heights of the body's top and bottom (NaN when unknown).
+    source: (N,) int8 source code (:data:`SOURCE_NAMES`).
+    n_views: (N,) int8, views whose detection contributed at that frame (0: interpolated).
+    """
+
+    frame: np.ndarray
+    track_id: np.ndarray
+    xyz: np.ndarray
+    top_z: np.ndarray
+    bottom_z: np.ndarray
+    source: np.ndarray
+    n_views: np.ndarray
+
+    @classmethod
+    def empty(cls) -> "Tracks3D":
+        return cls(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0), np.zeros(0),
+                   np.zeros(0, np.int8), np.zeros(0, np.int8))
+
+    @classmethod
+    def concat(cls, parts: Sequence["Tracks3D"]) -> "Tracks3D":
+        return _concat_rows(cls, parts)
+
+    def select(self, index) -> "Tracks3D":
+        return _select_rows(self, index)
+
+    def __len__(self) -> int:
+        return len(self.frame)
+
+    @property
+    def source_name(self) -> np.ndarray:
+        """(N,) source names."""
+        return np.asarray(SOURCE_NAMES, dtype=object)[self.source]
+
+    def __repr__(self) -> str:
+        return f"Tracks3D({len(self)} points, {len(np.unique(self.track_id))} tracks)"
+
+
+@dataclass(frozen=True, eq=False)
+class Target:
+    """The target gymnast's 3D trajectory (gaps filled, smoothed), one row per frame.
+
+    Attributes
+    ----------
+    frame: (N,) int64, increasing.
+    track_id: (N,) int64, the 3D track the target was following at that frame.
+    xyz: (N, 3) smoothed centre, metres.
+    source: (N,) int8 source code; :data:`INTERPOLATED` for filled gaps.
+    """
+
+    frame: np.ndarray
+    track_id: np.ndarray
+    xyz: np.ndarray
+    source: np.ndarray
+
+    @classmethod
+    def empty(cls) -> "Target":
+        return cls(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0, np.int8))
+
+    @classmethod
+    def concat(cls, parts: Sequence["Target"]) -> "Target":
+        return _concat_rows(cls, parts)
+
+    def select(self, index) -> "Target":
+        return _select_rows(self, index)
+
+    def __len__(self) -> int:
+        return len(self.frame)
+
+    @property
+    def source_name(self) -> np.ndarray:
+        return np.asarray(SOURCE_NAMES, dtype=object)[self.source]
+
+
+@dataclass(frozen=True, eq=False)
+class TrackerOutput:
+    """What became final in one call of the streaming tracker (or all of a routine).
+
+    Attributes
+    ----------
+    tracks: final 3D track points.
+    boxes: the 2D boxes of those tracks in every view: raw-image detections whose
+        ``track_id`` is the 3D track id (one box per track, view and frame at most).
+    target: the target gymnast's trajectory.
+    target_boxes: the expanded square boxes ``b_buf`` (Eq. 14) of the target in every view,
+        raw-image pixels, ``track_id`` = the target's track id.
+    """
+
+    tracks: Tracks3D
+    boxes: Detections
+    target: Target
+    target_boxes: Detections
+
+    @classmethod
+    def empty(cls, camera_names: Sequence[str]) -> "TrackerOutput":
+        return cls(Tracks3D.empty(), Detections.empty(camera_names), Target.empty(), Detections.empty(camera_names))
+
+    @classmethod
+    def concat(cls, parts: Sequence["TrackerOutput"], camera_names: Sequence[str]) -> "TrackerOutput":
+        parts = list(parts)
+        if not parts:
+            return cls.empty(camera_names)
+        return cls(
+            Tracks3D.concat([p.tracks for p in parts]),
+            Detections.concat([p.boxes for p in parts]),
+            Target.concat([p.target for p in parts]),
+            Detections.concat([p.target_boxes for p in parts]),
+        )
+
+    def __bool__(self) -> bool:
+        return bool(len(self.tracks) or len(self.boxes) or len(self.target) or len(self.target_boxes))
+
+
+@dataclass(frozen=True, eq=False)
+class TrackResult:
+    """The tracker's results on a whole routine.
+
+    Attributes
+    ----------
+    tracks, boxes, target, target_boxes: as in :class:`TrackerOutput`.
+    camera_names: the rig's cameras, in index order.
+    mode: ``cascade`` | ``triangulation`` | ``plane``.
+    summary: counts and timings (see :meth:`gymtrack.tracking.tracker.Tracker.summary`).
+    """
+
+    tracks: Tracks3D
+    boxes: Detections
+    target: Target
+    target_boxes: Detections
+    camera_names: tuple[str, ...]
+    mode: str
+    summary: dict = field(default_factory=dict)
