@@ -96,9 +96,10 @@ class Apparatus:
         return ABBREVIATIONS[self.name]
 
     @property
-    def centre(self) -> np.ndarray:
-        s = np.asarray(self.performance_space)
-        return np.array([(s[0] + s[3]) / 2, (s[1] + s[4]) / 2, 1.2])
+    def focus(self) -> tuple[float, float, float]:
+        """Where the action is: above the apparatus centre (the world origin) at a typical body-centre
+        height. Not the centre of the performance space, which for the vault lies mid-runway."""
+        return (0.0, 0.0, FOCUS_HEIGHT)
 
 
 # FIG numbers used below, named once.
@@ -111,6 +112,7 @@ HIGH_BAR_HEIGHT, HIGH_BAR_LENGTH = 2.8, 2.4
 UNEVEN_HIGH, UNEVEN_LOW, UNEVEN_LENGTH = 2.5, 1.7, 2.4
 UNEVEN_HORIZONTAL_GAP = 1.5  # gives a 1.70 m diagonal, inside FIG's 1.3-1.8 m
 PARALLEL_HEIGHT, PARALLEL_LENGTH, PARALLEL_SPACING = 2.0, 3.5, 0.47
+FOCUS_HEIGHT = 1.5  # a gymnast's centre on the apparatus: 1.25 m beam + ~0.9 m, bars' hang ~1.5-2 m
 
 
 def _presets() -> dict[str, Apparatus]:

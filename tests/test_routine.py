@@ -18,7 +18,7 @@ from gymtrack.formats.motchallenge import write_mot, write_mot_gt
 from gymtrack.formats.routine import load_routine
 from gymtrack.geometry import Camera, Rig
 
-CENTRE = np.array([0.0, 0.0, 2.25])  # balance beam performance-space centre
+CENTRE = np.array([0.0, 0.0, 2.25])  # the scene's focus (written into scene.yaml below)
 
 
 def _rig() -> Rig:
@@ -36,7 +36,7 @@ def _write_routine(root: Path, rng, frames: int = 12, empty: str | None = None) 
     rig = _rig()
     root.mkdir(parents=True, exist_ok=True)
     write_native(rig, root / "cameras.yaml")
-    (root / "scene.yaml").write_text("apparatus: balance_beam\nfps: 30\n")
+    (root / "scene.yaml").write_text("apparatus: balance_beam\nfps: 30\nfocus: [0, 0, 2.25]\n")
     (root / "detections").mkdir()
     counts = {}
     t = np.arange(1, frames + 1)

@@ -50,17 +50,16 @@ def cameras_table(rig: Rig) -> Table:
 
 
 def opposite_table(rig: Rig, scene: Scene) -> Table:
-    """Camera pairs whose lines of sight meet at the performance-space centre at more than
-    ``params.opposite_angle_deg`` (the pairs the ray-plane fallback is for)."""
+    """Camera pairs whose lines of sight meet at the scene's focus (the apparatus; by default the
+    performance-space centre) at more than ``params.opposite_angle_deg`` (the pairs the ray-plane
+    fallback is for)."""
     from gymtrack.geometry.views import pairwise_angles
 
-    s = np.asarray(scene.performance_space, dtype=np.float64)
-    centre = (s[:3] + s[3:]) / 2
+    centre = scene.focus_point
     thr = scene.params.opposite_angle_deg
     ang = pairwise_angles(rig, centre)
     t = Table(
-        title=f"Opposite camera pairs: line-of-sight angle > {thr:g} deg at the performance-space centre "
-        f"{_vec(centre, '{:.2f}')}",
+        title=f"Opposite camera pairs: line-of-sight angle > {thr:g} deg at the focus {_vec(centre, '{:.2f}')}",
         title_justify="left", min_width=60,
     )
     t.add_column("camera a", no_wrap=True)

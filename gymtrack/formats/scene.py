@@ -69,6 +69,9 @@ class Params(_Strict):
     cluster_2d: float = Field(0.3, gt=0, description="lambda, Algorithm 1 threshold on Eq. 2")
     cluster_plane: float = Field(0.5, gt=0, description="metres, Algorithm 1 threshold on Eq. 8")
     link_3d: float = Field(0.6, gt=0, description="metres, gate of the cross-window assignment")
+    relink_frames: int = Field(
+        10, ge=0, description="frames a lost 3D track can still be continued across a gap (0: the paper, no re-linking)"
+    )
     max_speed: float = Field(1.0, gt=0, description="nu, metres per frame (Eq. 4)")
     identify_frames: int = Field(30, ge=1, description="Delta of Eq. 13")
     max_gap: int = Field(7, ge=0, description="target gaps up to this many frames are interpolated")
@@ -93,6 +96,10 @@ class Scene(_Strict):
     fps: float = Field(30.0, gt=0)
     performance_space: tuple[float, float, float, float, float, float]
     buffer: float = Field(1.0, ge=0, description="beta: S_track is S_perf grown by beta in x and y")
+    focus: Optional[Vec3] = Field(
+        None, description="where the apparatus (the action) is; two views are judged opposite there. "
+        "Default: the centre of the performance space"
+    )
     planes: tuple[PlaneSpec, ...] = ()
     target: TargetSpec = TargetSpec()
     params: Params = Params()
@@ -110,6 +117,7 @@ class Scene(_Strict):
             "performance_space": list(app.performance_space),
             "planes": [{"point": list(app.plane_point), "normal": list(app.plane_normal)}],
             "target": {"h_top": app.h_top, "h_bot": app.h_bot},
+            "focus": list(app.focus),
         }
         merged.update({k: v for k, v in data.items()})
         if isinstance(data.get("target"), dict):  # partial override of the preset heights
@@ -132,6 +140,14 @@ class Scene(_Strict):
         s = np.array(self.performance_space, dtype=np.float64)
         b = self.buffer
         return s + np.array([-b, -b, 0.0, b, b, 0.0])
+
+    @property
+    def focus_point(self) -> np.ndarray:
+        """(3,) the point where camera pairs are judged opposite: ``focus`` or the centre of ``S_perf``."""
+        if self.focus is not None:
+            return np.array(self.focus, dtype=np.float64)
+        s = np.array(self.performance_space, dtype=np.float64)
+        return (s[:3] + s[3:]) / 2
 
     def to_yaml_dict(self) -> dict:
         d = self.model_dump(mode="json")

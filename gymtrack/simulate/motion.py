@@ -23,9 +23,12 @@ from . import body as B
 G = 9.81  #: gravity, m/s^2
 
 # Phase labels of the target's frames.
-WALK, SALUTE, MOUNT, SKILL, DISMOUNT, LANDING, OFF_PLANE, WAIT = range(8)
-PHASE_NAMES = ("walk", "salute", "mount", "skill", "dismount", "landing", "off_plane", "wait")
-#: Phases in which the target performs (its centre must stay in the performance space).
+WALK, SALUTE, MOUNT, SKILL, DISMOUNT, LANDING, OFF_PLANE, WAIT, RUN_UP = range(9)
+PHASE_NAMES = ("walk", "salute", "mount", "skill", "dismount", "landing", "off_plane", "wait", "run_up")
+#: Phases in which the target performs (its centre must stay in the performance space). The
+#: vault's run-up is not among them: a vault is judged from the take-off from the springboard
+#: (the run is not evaluated), and on the runway the gymnast runs on the floor like anyone
+#: else, so no height rule (paper Eq. 13) can single her out before the hurdle.
 PERFORMING = (MOUNT, SKILL, DISMOUNT, LANDING, OFF_PLANE)
 
 

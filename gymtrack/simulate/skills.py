@@ -35,7 +35,7 @@ from scipy.ndimage import distance_transform_edt, gaussian_filter1d
 from ..apparatus import Apparatus
 from . import body as B
 from .motion import (
-    DISMOUNT, LANDING, MOUNT, OFF_PLANE, SALUTE, SKILL, WAIT, WALK, Motion, MotionBuilder, smoothstep, wrap_angle,
+    DISMOUNT, LANDING, MOUNT, OFF_PLANE, RUN_UP, SALUTE, SKILL, WAIT, WALK, Motion, MotionBuilder, smoothstep, wrap_angle,
 )
 
 TWO_PI = 2 * np.pi
@@ -415,7 +415,7 @@ def _vault(c: Choreography) -> None:
         b.stand(rng.uniform(0.4, 0.8), 0.0, B.STAND, WAIT, yaw=0.0)
         first = False
 
-        # Run-up (performing from the first step): v(t) = v_max (1 - exp(-t / tau)).
+        # Run-up (not yet performing, see motion.PERFORMING): v(t) = v_max (1 - exp(-t / tau)).
         t_end = L / v_max + tau
         for _ in range(30):  # Newton on x(t) = L
             xt = v_max * (t_end - tau * (1 - np.exp(-t_end / tau)))
@@ -432,7 +432,7 @@ def _vault(c: Choreography) -> None:
         lean = b.upright_pitch + 0.15 * np.minimum(t / 0.5, 1.0)
         yaw = np.full(n, b.yaw)
         cen = b.body.centre_on_feet(np.column_stack([xs, np.zeros(n)]), 0.0, ang, yaw, lean, np.zeros(n))
-        b.append(cen, yaw, lean, 0.0, ang, B.RUN, SKILL)
+        b.append(cen, yaw, lean, 0.0, ang, B.RUN, RUN_UP)
 
         # Hurdle onto the board (a low flight), board contact, pre-flight to the table.
         board_pose = np.array([10, 10, 0, 10, 10, 150, 150, 0, 0, 0, 0.5, 5], float)

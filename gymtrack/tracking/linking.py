@@ -7,6 +7,15 @@ most ``link_3d`` metres (paper: 0.6; larger bridges noisier estimates but may sw
 standing close). Unlinked tracklets start new tracks. The merge of Eq. 12 -- the overlap
 averaged -- happens when the frames are made final (:mod:`.tracker`), where every frame's
 estimates of one track from the two windows covering it are averaged.
+
+Beyond the paper: re-linking across short gaps. The paper links only consecutive windows, so
+a person missing from one window's 3D tracklets (a few frames seen by one view only, or an
+outlier window) comes back under a new track id, and the target must then be re-identified
+by Eq. 13, which costs at least ``identify_frames / 2`` frames. A track that was not continued
+stays *lost* for ``relink_frames`` frames; an unlinked new tracklet whose first point lies
+within ``link_3d`` of the lost track's constant-velocity prediction continues it (again a
+linear assignment, :func:`relink_distances` + :func:`link`). ``relink_frames = 0`` is the
+paper's behaviour.
 """
 
 from __future__ import annotations
@@ -59,6 +68,57 @@ def link(D: np.ndarray, gate: float) -> tuple[np.ndarray, np.ndarray]:
     r, c = linear_sum_assignment(cost)
     keep = sub[r, c]
     return rows[r[keep]], cols[c[keep]]
+
+
+def tracklet_ends(xyz: np.ndarray, valid: np.ndarray, start: int, max_speed: float) -> tuple[np.ndarray, ...]:
+    """Where each 3D tracklet of a window ends, and how fast it was moving.
+
+    xyz: (M, W, 3), valid: (M, W) (every row has a valid point), start: the window's first frame;
+    max_speed: metres per frame, the velocity is clipped to it.
+    Returns last_frame (M,), last_xyz (M, 3) and velocity (M, 3) in metres per frame, from the
+    last valid point and the earliest valid point at most 4 frames before it (zero if none).
+    """
+    M, W = valid.shape
+    t = np.arange(W)
+    last = W - 1 - np.argmax(valid[:, ::-1], axis=1)
+    early = np.where(valid & (t >= (last - 4)[:, None]), t, W).min(axis=1)
+    rows = np.arange(M)
+    dt = np.maximum(last - early, 1)
+    vel = (xyz[rows, last] - xyz[rows, early]) / dt[:, None]
+    speed = np.linalg.norm(vel, axis=1)
+    vel *= np.minimum(1.0, max_speed / np.maximum(speed, 1e-12))[:, None]
+    return start + last, xyz[rows, last].copy(), vel
+
+
+def relink_distances(
+    lost_frame: np.ndarray,
+    lost_xyz: np.ndarray,
+    lost_velocity: np.ndarray,
+    new_xyz: np.ndarray,
+    new_valid: np.ndarray,
+    start: int,
+    max_gap: int,
+) -> np.ndarray:
+    """Distance of every (lost track, new tracklet) pair for re-linking across a gap.
+
+    lost_frame: (L,) last frame of each lost track; lost_xyz, lost_velocity: (L, 3) its last
+    point and velocity (metres per frame); new_xyz: (Mn, W, 3), new_valid: (Mn, W): the new
+    window's unlinked tracklets, starting at frame ``start``. The distance is between the new
+    tracklet's first valid point and the lost track's constant-velocity prediction for that
+    frame. Returns (L, Mn) metres; NaN where the gap (frames strictly between) is negative
+    (the two overlap: plain linking already refused them) or longer than ``max_gap``.
+    """
+    L, Mn = len(lost_frame), len(new_xyz)
+    if L == 0 or Mn == 0:
+        return np.full((L, Mn), np.nan)
+    first = np.argmax(new_valid, axis=1)
+    f0 = start + first  # (Mn,)
+    x0 = new_xyz[np.arange(Mn), first]  # (Mn, 3)
+    dt = f0[None, :] - lost_frame[:, None]  # (L, Mn)
+    pred = lost_xyz[:, None, :] + lost_velocity[:, None, :] * dt[..., None]
+    D = np.linalg.norm(x0[None] - pred, axis=-1)
+    D[(dt < 1) | (dt > max_gap + 1)] = np.nan
+    return D
 
 
 def merge_overlaps(

@@ -159,6 +159,7 @@ def plane_stage(
     planes: list[Plane],
     threshold: float,
     labels: np.ndarray | None = None,
+    apart: np.ndarray | None = None,
 ) -> WindowTracklets3D:
     """The whole plane fallback for the segments handed to it.
 
@@ -167,6 +168,8 @@ def plane_stage(
     the plane times a geometry factor), lower splits the gymnast when detections are noisy.
     labels: (K,) person ids given by an oracle: candidates of different ids are never matched
         (the plane's own test, Eq. 8 below ``threshold``, still applies); None = no constraint.
+    apart: (K, K) bool, pairs known to be different people (e.g. their Eq. 2 epipolar distance
+        is at least the 2D clustering threshold): never matched; None = no constraint.
     Returns the fused 3D tracklets (before the outlier test); ``members`` index ``segs``.
     """
     K, W = segs.valid.shape
@@ -178,6 +181,8 @@ def plane_stage(
     D = best_plane_distance(Dp)
     if labels is not None:
         D = np.where(labels[:, None] == labels[None, :], D, np.inf)
+    if apart is not None:
+        D = np.where(apart, np.inf, D)
     with np.errstate(invalid="ignore"):
         if not np.any(D < threshold):  # no two views agree: every candidate is discarded
             return WindowTracklets3D.empty(segs.start, W, C)

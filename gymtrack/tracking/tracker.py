@@ -52,7 +52,7 @@ from ..geometry.epipolar import fundamental_matrices
 from ..geometry.plane import Plane
 from ..geometry.views import opposite_pairs
 from .clustering import complete_linkage, tracklet_distances
-from .linking import link, link_distances, merge_overlaps
+from .linking import link, link_distances, merge_overlaps, relink_distances, tracklet_ends
 from .plane_fallback import plane_stage
 from .reconstruct import cluster_members, opposite_clusters, outliers, triangulate_clusters
 from .single_view import IoUTracker
@@ -101,8 +101,8 @@ class Tracker:
         self.space = np.asarray(scene.tracking_space, dtype=np.float64)
         self.perf = np.asarray(scene.performance_space, dtype=np.float64)
         self.perf_centre = (self.perf[:3] + self.perf[3:]) / 2
-        # (C, C) opposite camera pairs, judged at the performance-space centre (see reconstruct)
-        self.opposite = opposite_pairs(rig, self.perf_centre, p.opposite_angle_deg)
+        # (C, C) opposite camera pairs, judged at the scene's focus, the apparatus (see reconstruct)
+        self.opposite = opposite_pairs(rig, scene.focus_point, p.opposite_angle_deg)
         self._undist = UndistortTables(rig) if any(cam.has_distortion for cam in rig) else None
         self.iou = IoUTracker(p.iou_threshold, p.max_age)
         self.selector = TargetSelector(p.identify_frames)
@@ -124,6 +124,8 @@ class Tracker:
         self._next_track_id = 0
         self._track_last: dict[int, int] = {}  # live track -> last valid frame
         self._ended: dict[int, int] = {}  # ended track -> last frame (kept identify_frames)
+        # lost tracks (not continued, may still be re-linked): id -> (last frame, last xyz, velocity)
+        self._lost: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
         self._rec3d: list[tuple] = []
         self._rec2d: list[tuple] = []
         self._out: list[TrackerOutput] = []
@@ -172,7 +174,7 @@ class Tracker:
         n = len(self.iou) + sum(len(c[1]) for c in self._pending) + len(self._table["frame"])
         n += sum(len(r[0]) for r in self._rec3d) + sum(len(r[0]) for r in self._rec2d)
         n += 0 if self._prev is None else self._prev.valid.size
-        n += len(self._track_last) + len(self._ended) + len(self.selector) + len(self.smoother)
+        n += len(self._track_last) + len(self._lost) + len(self._ended) + len(self.selector) + len(self.smoother)
         return n
 
     def summary(self) -> dict:
@@ -202,6 +204,7 @@ class Tracker:
             "segments_dropped_single": int(self.counts["segments_dropped_single"]),
             "tracklets_outliers": int(self.counts["tracklets_outliers"]),
             "links": int(self.counts["links"]),
+            "relinks": int(self.counts["relinks"]),
             "seconds": {k: round(v, 6) for k, v in self.timings.items()},
             "seconds_total": round(total, 6),
             "fps": round(frames / total, 1) if total > 0 else None,
@@ -305,12 +308,14 @@ class Tracker:
         self.timings["windows"] += t1 - t0
 
         # stage 3: clusters of segments
+        D2 = None  # Eq. 2 distances of the segments (the method's own association only)
         if self.mode == "plane":
             labels = None
         elif self.association == "oracle":
             labels = np.unique(segs.track2d // C, return_inverse=True)[1]
         else:
-            labels = complete_linkage(tracklet_distances(segs, self.F), p.cluster_2d)
+            D2 = tracklet_distances(segs, self.F)
+            labels = complete_linkage(D2, p.cluster_2d)
         t2 = clock()
         self.timings["clustering"] += t2 - t1
 
@@ -342,7 +347,10 @@ class Tracker:
             plane_labels = None
             if self.association == "oracle":
                 plane_labels = np.unique(sub.track2d // C, return_inverse=True)[1]
-            pl = plane_stage(sub, self.rig, self.planes, p.cluster_plane, plane_labels)
+            # beyond the paper: two segments the epipolar test (Eq. 2) says are different people
+            # may not be fused on the plane either (their centre rays can still meet there: a phantom)
+            apart = None if D2 is None else D2[np.ix_(to_plane, to_plane)] >= p.cluster_2d
+            pl = plane_stage(sub, self.rig, self.planes, p.cluster_plane, plane_labels, apart)
             self.counts["segments_to_plane"] += len(to_plane)
             if len(pl):
                 bad = outliers(pl.xyz, pl.valid, self.space, p.max_speed)
@@ -365,14 +373,33 @@ class Tracker:
             ids[c] = prev.track_id[r]
             self.counts["links"] += len(r)
         new = ids < 0
+        if self._lost and new.any() and p.relink_frames > 0:  # beyond the paper: bridge short gaps
+            lost_ids = np.fromiter(self._lost, np.int64, len(self._lost))
+            lf, lx, lv = (np.array(v) for v in zip(*self._lost.values()))
+            cols = np.flatnonzero(new)
+            r, c = link(relink_distances(lf, lx, lv, cur.xyz[cols], cur.valid[cols], start, p.relink_frames),
+                        p.link_3d)
+            ids[cols[c]] = lost_ids[r]
+            for tid in lost_ids[r].tolist():
+                del self._lost[tid]
+            self.counts["relinks"] += len(r)
+            new = ids < 0
         ids[new] = self._next_track_id + np.arange(int(new.sum()))
         self._next_track_id += int(new.sum())
         cur = WindowTracklets3D(cur.start, cur.xyz, cur.top_z, cur.bottom_z, cur.valid, cur.source, cur.n_views,
                                 cur.members, ids)
         self._record(cur, segs)
         live = set(ids.tolist())
-        for tid in [k for k in self._track_last if k not in live]:
-            self._ended[tid] = self._track_last.pop(tid)
+        gone = [k for k in self._track_last if k not in live]
+        if gone:  # not continued: lost, and ended once it can no longer be re-linked
+            at = np.flatnonzero(np.isin(prev.track_id, gone))
+            lf, lx, lv = tracklet_ends(prev.xyz[at], prev.valid[at], prev.start, p.max_speed)
+            for k, tid in enumerate(prev.track_id[at].tolist()):
+                self._track_last.pop(tid)
+                self._lost[tid] = (int(lf[k]), lx[k], lv[k])
+        horizon = start + self.step - p.relink_frames - 1  # a lost track ending before this is beyond reach
+        for tid in [k for k, v in self._lost.items() if v[0] < horizon]:
+            self._ended[tid] = self._lost.pop(tid)[0]
         last = start + W - 1 - np.argmax(cur.valid[:, ::-1], axis=1)
         self._track_last.update(zip(ids.tolist(), last.tolist()))
         self._prev = cur

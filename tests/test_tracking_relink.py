@@ -1,0 +1,116 @@
+"""Beyond the paper: re-linking a lost 3D track across a short gap, and the epipolar veto on
+fusing plane candidates (two segments Eq. 2 calls different people are never fused)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).parent))
+from test_tracking_synth import as_raw, make_detections, ring_rig, simple_scene  # noqa: E402
+
+from gymtrack.formats.scene import preset_scene  # noqa: E402
+from gymtrack.tracking import track_detections  # noqa: E402
+from gymtrack.tracking.linking import link, relink_distances, tracklet_ends  # noqa: E402
+
+T = 60
+
+
+def walk_with_gap(gap):
+    """(1, T, 3): a person walking along y on the plane x = 0, absent in the frames ``gap``."""
+    t = np.arange(T)
+    traj = np.stack([np.zeros(T), -1.5 + 0.05 * t, np.full(T, 1.0)], axis=1)[None].copy()
+    traj[0, gap] = np.nan
+    return traj
+
+
+def test_tracklet_ends_hand_worked():
+    xyz = np.zeros((2, 6, 3))
+    xyz[0, :, 0] = np.arange(6) * 0.1  # moving 0.1 m per frame along x, valid everywhere
+    xyz[1, :3, 1] = [0.0, 0.5, 1.0]  # 0.5 m per frame, last valid at index 2
+    valid = np.array([[1, 1, 1, 1, 1, 1], [1, 1, 1, 0, 0, 0]], bool)
+    last, X, v = tracklet_ends(xyz, valid, start=100, max_speed=0.3)
+    np.testing.assert_array_equal(last, [105, 102])
+    np.testing.assert_allclose(X, [[0.5, 0, 0], [0, 1.0, 0]])
+    np.testing.assert_allclose(v[0], [0.1, 0, 0])
+    np.testing.assert_allclose(v[1], [0, 0.3, 0])  # clipped to max_speed
+
+
+def test_relink_distances_predict_across_the_gap():
+    lost_frame = np.array([10])
+    lost_xyz = np.array([[0.0, 0.0, 1.0]])
+    lost_v = np.array([[0.1, 0.0, 0.0]])
+    new = np.full((3, 10, 3), np.nan)
+    valid = np.zeros((3, 10), bool)
+    new[0, 4] = [0.5, 0.0, 1.0]; valid[0, 4] = True  # frame 14: predicted 0.4 -> 0.1 m away
+    new[1, 2] = [2.0, 0.0, 1.0]; valid[1, 2] = True  # frame 12: predicted 0.2 -> 1.8 m away
+    new[2, 9] = [1.9, 0.0, 1.0]; valid[2, 9] = True  # frame 19 = gap of 8 > max_gap 7: refused
+    D = relink_distances(lost_frame, lost_xyz, lost_v, new, valid, start=10, max_gap=7)
+    np.testing.assert_allclose(D[0, :2], [0.1, 1.8])
+    assert np.isnan(D[0, 2])
+    r, c = link(D, 0.6)
+    assert list(zip(r, c)) == [(0, 0)]
+    # a new tracklet overlapping the lost track's last frame is plain linking's business
+    valid2 = np.zeros((1, 10), bool); valid2[0, 0] = True
+    assert np.isnan(relink_distances(lost_frame, lost_xyz, lost_v, new[:1], valid2, start=10, max_gap=7)[0, 0])
+
+
+@pytest.mark.parametrize("relink_frames, n_tracks", [(0, 2), (10, 1)])
+def test_a_person_missing_for_a_window_keeps_the_track_id_when_relinking(relink_frames, n_tracks):
+    rig = ring_rig([0, 120, 240])
+    traj = walk_with_gap(slice(24, 31))  # 7 frames: no window's tracklet spans the gap
+    det, _ = make_detections(rig, traj, noise=0.5, seed=1)
+    res = track_detections(rig, simple_scene(relink_frames=relink_frames), as_raw(det), mode="cascade")
+    assert len(np.unique(res.tracks.track_id)) == n_tracks
+    assert res.summary["relinks"] == (n_tracks == 1)
+    # the gap itself is not invented (segment ends are held for at most max_age = 2 frames)
+    assert not np.isin(np.arange(26, 29), res.tracks.frame).any()
+
+
+def test_relinking_needs_the_new_tracklet_near_the_prediction():
+    rig = ring_rig([0, 120, 240])
+    traj = walk_with_gap(slice(24, 31))
+    traj[0, 31:, 1] += 1.5  # comes back 1.5 m away from where it was heading: someone else
+    det, _ = make_detections(rig, traj, noise=0.5, seed=1)
+    res = track_detections(rig, simple_scene(relink_frames=10), as_raw(det), mode="cascade")
+    assert len(np.unique(res.tracks.track_id)) == 2 and res.summary["relinks"] == 0
+
+
+def test_plane_candidates_of_different_people_are_not_fused():
+    """Two people, each seen by one view of a non-opposite pair, placed on those views' rays
+    through two points of the plane less than ``cluster_plane`` apart: Eq. 8 alone would fuse
+    them into a phantom on the plane, but Eq. 2 says they are different people (their rays pass
+    far from each other), so the plane stage must not fuse them."""
+    from gymtrack.geometry.epipolar import epipolar_distance, fundamental_matrix
+
+    rig = ring_rig([20, 110], radius=10.0)  # 90 degrees apart, on both sides of the plane x = 0
+    scene = simple_scene()
+    c0, c1 = rig[0].centre, rig[1].centre
+    p0 = np.array([0.0, 0.0, 1.2])
+    F = fundamental_matrix(rig[0], rig[1])
+    for dz in np.linspace(0.05, 0.49, 45):  # the two plane points: p0 and p0 + dz up the plane
+        p1 = p0 + [0.0, 0.0, dz]
+        a = c0 + 0.9 * (p0 - c0)  # a stands on cam0's ray through p0 ...
+        b = c1 + 0.9 * (p1 - c1)  # ... b on cam1's ray through p1
+        traj = np.stack([np.tile(a, (30, 1)), np.tile(b, (30, 1))])
+        det, _ = make_detections(rig, traj, visible=np.array([[True, False], [False, True]]), seed=2)
+        b0, b1 = det.box[det.camera == 0][0], det.box[det.camera == 1][0]
+        if epipolar_distance(b0, b1, F) >= scene.params.cluster_2d:
+            break
+    else:
+        pytest.fail("no placement makes the two people epipolar-inconsistent")
+    assert dz < scene.params.cluster_plane  # Eq. 8 alone would fuse their candidates
+    res = track_detections(rig, scene, as_raw(det), mode="cascade")
+    assert len(res.tracks) == 0, "a phantom was fused on the plane"
+    assert res.summary["plane_tracklets"] == 0
+
+
+def test_scene_focus_defaults_to_the_performance_space_centre_and_presets_use_the_apparatus():
+    s = simple_scene()
+    np.testing.assert_allclose(s.focus_point, [0, 0, 2.25])
+    v = preset_scene("vault")
+    assert v.performance_space[0] < -20  # the runway ...
+    np.testing.assert_allclose(v.focus_point[:2], [0, 0])  # ... but the action is at the table
