@@ -114,3 +114,27 @@ def test_scene_focus_defaults_to_the_performance_space_centre_and_presets_use_th
     v = preset_scene("vault")
     assert v.performance_space[0] < -20  # the runway ...
     np.testing.assert_allclose(v.focus_point[:2], [0, 0])  # ... but the action is at the table
+
+
+def test_a_view_left_alone_continues_the_track_on_the_plane():
+    """A person on the plane seen by an opposite pair; for 15 frames one view loses them. The
+    remaining view's 2D track already belongs to the 3D track, so its ray-plane intersection
+    continues that track (the paper would drop the lone candidate); a bystander only ever seen
+    by one view makes no track at all."""
+    rig = ring_rig([0, 180])  # opposite pair through the plane x = 0
+    traj = walk_with_gap(slice(0, 0))  # on the plane, always present
+    bystander = traj.copy()
+    bystander[0, :, 0] = 1.0  # 1 m off the plane
+    bystander[0, :, 1] *= -1
+    both = np.concatenate([traj, bystander])
+    det, pid = make_detections(rig, both, visible=np.array([[True, True], [True, False]]), noise=0.5, seed=3)
+    lost = (pid == 0) & (det.camera == 1) & (det.frame >= 25) & (det.frame < 40)
+    det = det.select(~lost)
+    res = track_detections(rig, simple_scene(), as_raw(det), mode="cascade")
+    assert len(np.unique(res.tracks.track_id)) == 1  # one person, one track; no bystander track
+    alone = (res.tracks.frame >= 28) & (res.tracks.frame < 37)
+    assert alone.sum() == 9 and np.all(res.tracks.n_views[alone] == 1)
+    truth = traj[0, res.tracks.frame[alone]]
+    assert np.abs(res.tracks.xyz[alone, 0]).max() < 1e-6  # on the plane ...
+    assert np.linalg.norm(res.tracks.xyz[alone] - truth, axis=1).max() < 0.15  # ... where the person is
+    assert res.summary["plane_single_view"] > 0

@@ -116,17 +116,24 @@ def fuse_on_planes(
     Dp: np.ndarray,
     labels: np.ndarray,
     n_cameras: int,
+    single: np.ndarray | None = None,
 ) -> WindowTracklets3D:
     """Eq. 9: average the matched candidates of each cluster with members from two or more views.
 
     segs: the K segments of the plane stage; cand: (3, P, K, W, 3) from :func:`plane_candidates`;
     Dp: (P, K, K) Eq. 8 distances (to pick each cluster's plane); labels: (K,) clusters with
-    at most one segment per camera. Returns one 3D tracklet per cluster of >= 2 members, source
-    plane; ``members`` index ``segs``.
+    at most one segment per camera; single: (K,) bool, segments that may stand alone (a
+    one-member cluster, on the first plane) -- see :func:`plane_stage`. Returns one 3D
+    tracklet per cluster of >= 2 members (or a permitted single), source plane; ``members``
+    index ``segs``.
     """
     K, W = segs.valid.shape
     members = cluster_members(labels, segs.camera, n_cameras)
-    members = members[(members >= 0).sum(axis=1) >= 2]
+    count = (members >= 0).sum(axis=1)
+    keep = count >= 2
+    if single is not None:
+        keep |= (count == 1) & single[np.max(members, axis=1)]
+    members = members[keep]
     M = len(members)
     if M == 0:
         return WindowTracklets3D.empty(segs.start, W, n_cameras)
@@ -160,6 +167,7 @@ def plane_stage(
     threshold: float,
     labels: np.ndarray | None = None,
     apart: np.ndarray | None = None,
+    single: np.ndarray | None = None,
 ) -> WindowTracklets3D:
     """The whole plane fallback for the segments handed to it.
 
@@ -170,11 +178,15 @@ def plane_stage(
         (the plane's own test, Eq. 8 below ``threshold``, still applies); None = no constraint.
     apart: (K, K) bool, pairs known to be different people (e.g. their Eq. 2 epipolar distance
         is at least the 2D clustering threshold): never matched; None = no constraint.
+    single: (K,) bool, segments kept as one-view plane tracklets when no other view matches
+        them (the paper discards every unmatched candidate; the tracker allows it only for a
+        2D track that already belongs to a 3D track, and keeps the result only if it links).
     Returns the fused 3D tracklets (before the outlier test); ``members`` index ``segs``.
     """
     K, W = segs.valid.shape
     C = len(rig)
-    if K < 2 or not planes:
+    any_single = single is not None and bool(single.any())
+    if (K < 2 and not any_single) or not planes:
         return WindowTracklets3D.empty(segs.start, W, C)
     cand = plane_candidates(segs, rig, planes)
     Dp = candidate_distances(cand[0], segs.observed, segs.camera)
@@ -184,6 +196,8 @@ def plane_stage(
     if apart is not None:
         D = np.where(apart, np.inf, D)
     with np.errstate(invalid="ignore"):
-        if not np.any(D < threshold):  # no two views agree: every candidate is discarded
-            return WindowTracklets3D.empty(segs.start, W, C)
-    return fuse_on_planes(segs, cand, Dp, complete_linkage(D, threshold), C)
+        agree = bool(np.any(D < threshold))
+    if not agree and not any_single:  # no two views agree: every candidate is discarded
+        return WindowTracklets3D.empty(segs.start, W, C)
+    labels = complete_linkage(D, threshold) if agree else np.arange(K)
+    return fuse_on_planes(segs, cand, Dp, labels, C, single)

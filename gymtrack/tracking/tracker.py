@@ -126,6 +126,8 @@ class Tracker:
         self._ended: dict[int, int] = {}  # ended track -> last frame (kept identify_frames)
         # lost tracks (not continued, may still be re-linked): id -> (last frame, last xyz, velocity)
         self._lost: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
+        # 2D track ids that were members of the previous window's 3D tracklets (single-view continuation)
+        self._prev_2d = np.zeros(0, np.int64)
         self._rec3d: list[tuple] = []
         self._rec2d: list[tuple] = []
         self._out: list[TrackerOutput] = []
@@ -205,6 +207,8 @@ class Tracker:
             "tracklets_outliers": int(self.counts["tracklets_outliers"]),
             "links": int(self.counts["links"]),
             "relinks": int(self.counts["relinks"]),
+            "plane_single_view": int(self.counts["plane_single_view"]),
+            "plane_single_view_unlinked": int(self.counts["plane_single_view_unlinked"]),
             "seconds": {k: round(v, 6) for k, v in self.timings.items()},
             "seconds_total": round(total, 6),
             "fps": round(frames / total, 1) if total > 0 else None,
@@ -350,7 +354,10 @@ class Tracker:
             # beyond the paper: two segments the epipolar test (Eq. 2) says are different people
             # may not be fused on the plane either (their centre rays can still meet there: a phantom)
             apart = None if D2 is None else D2[np.ix_(to_plane, to_plane)] >= p.cluster_2d
-            pl = plane_stage(sub, self.rig, self.planes, p.cluster_plane, plane_labels, apart)
+            # beyond the paper: a view left alone may continue, on the plane, the 3D track its 2D
+            # track already belongs to (kept below only if it links to that track)
+            single = np.isin(sub.track2d, self._prev_2d)
+            pl = plane_stage(sub, self.rig, self.planes, p.cluster_plane, plane_labels, apart, single)
             self.counts["segments_to_plane"] += len(to_plane)
             if len(pl):
                 bad = outliers(pl.xyz, pl.valid, self.space, p.max_speed)
@@ -366,6 +373,9 @@ class Tracker:
 
         # stage 6: cross-window linking
         cur = WindowTracklets3D.concat(parts) if parts else WindowTracklets3D.empty(start, W, C)
+        solo = np.zeros(len(cur), bool)  # one-view plane tracklets: they may only continue a track
+        if parts and self.mode != "triangulation" and len(to_plane):
+            solo[len(cur) - len(parts[-1]):] = (parts[-1].members >= 0).sum(axis=1) == 1
         ids = np.full(len(cur), -1, np.int64)
         prev = self._prev
         if prev is not None and len(prev) and len(cur) and prev.start == start - self.step:
@@ -384,11 +394,17 @@ class Tracker:
                 del self._lost[tid]
             self.counts["relinks"] += len(r)
             new = ids < 0
+        if solo.any():
+            drop = solo & new
+            self.counts["plane_single_view"] += int(np.count_nonzero(solo & ~new))
+            self.counts["plane_single_view_unlinked"] += int(np.count_nonzero(drop))
+            cur, ids, new = cur.subset(~drop), ids[~drop], new[~drop]
         ids[new] = self._next_track_id + np.arange(int(new.sum()))
         self._next_track_id += int(new.sum())
         cur = WindowTracklets3D(cur.start, cur.xyz, cur.top_z, cur.bottom_z, cur.valid, cur.source, cur.n_views,
                                 cur.members, ids)
         self._record(cur, segs)
+        self._prev_2d = segs.track2d[cur.members[cur.members >= 0]]
         live = set(ids.tolist())
         gone = [k for k in self._track_last if k not in live]
         if gone:  # not continued: lost, and ended once it can no longer be re-linked
