@@ -223,7 +223,8 @@ def claims(rows: Sequence[dict]) -> list[Claim]:
     1. n_cam = 2, averaged over apparatus: cascade FR <= 0.3 x triangulation FR;
     2. ... cascade AED <= 0.85 x triangulation AED;
     3. ... cascade ID switches <= triangulation ID switches (summed);
-    4. n_cam = 4: cascade AED within 5 % of triangulation AED (``|ratio - 1| <= 0.05``);
+    4. n_cam = 4: cascade AED at most 5 % above triangulation AED (``ratio <= 1.05``): the claim
+       is that the cascade must not hurt when views are plenty, so being better passes;
     5. every n_cam: cascade AED <= 1.25 x oracle AED (one claim per n_cam);
     6. speed: cascade >= 1000 frames per second, and >= 0.9 x triangulation's.
     """
@@ -250,9 +251,9 @@ def claims(rows: Sequence[dict]) -> list[Claim]:
     if has("cascade", 4) and has("triangulation", 4):
         c, t = aed[("cascade", 4)], aed[("triangulation", 4)]
         r = _div(c, t)
-        out.append(_claim("n_cam=4: AED cascade within 5 % of triangulation", r, 1.05, abs(r - 1) <= 0.05, f"cascade {c:.3f} m, triangulation {t:.3f} m"))
+        out.append(_claim("n_cam=4: AED cascade <= 1.05 x triangulation (no worse)", r, 1.05, r <= 1.05, f"cascade {c:.3f} m, triangulation {t:.3f} m"))
     else:
-        out.append(_claim("n_cam=4: AED cascade within 5 % of triangulation", nan, 1.05, None, "needs cascade and triangulation at n_cam = 4"))
+        out.append(_claim("n_cam=4: AED cascade <= 1.05 x triangulation (no worse)", nan, 1.05, None, "needs cascade and triangulation at n_cam = 4"))
     for n in _present(rows, "n_cam", N_CAMS):
         if has("cascade", n) and has("oracle", n):
             c, o = aed[("cascade", n)], aed[("oracle", n)]
