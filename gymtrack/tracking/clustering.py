@@ -58,7 +58,7 @@ def complete_linkage(D: np.ndarray, threshold: float) -> np.ndarray:
         np.fill_diagonal(S, np.nan)
         idx = np.arange(K)
         while True:
-            W = np.where(np.isnan(S), np.inf, S)  # unknown is never the closest pair
+            W = np.fmin(S, np.inf)  # unknown (NaN) is never the closest pair: fmin ignores NaN
             nn = np.argmin(W, axis=1)
             d = W[idx, nn]
             I = np.flatnonzero((nn[nn] == idx) & (idx < nn) & (d < threshold))
@@ -75,8 +75,18 @@ def complete_linkage(D: np.ndarray, threshold: float) -> np.ndarray:
             relabel = idx.copy()
             relabel[J] = I
             owner = relabel[owner]
-    _, first, inv = np.unique(owner, return_index=True, return_inverse=True)
-    return np.argsort(np.argsort(first))[inv]  # renumber by first member
+    return _number_by_first_member(owner)
+
+
+def _number_by_first_member(owner: np.ndarray) -> np.ndarray:
+    """(K,) cluster representatives (any member index) -> labels 0..n-1 in order of each
+    cluster's first member (table lookups: cheaper than np.unique and two argsorts)."""
+    K = len(owner)
+    idx = np.arange(K)
+    first = np.full(K, K)
+    np.minimum.at(first, owner, idx)  # first member of each representative's cluster
+    is_first = first[owner] == idx
+    return (np.cumsum(is_first) - 1)[first[owner]]
 
 
 def complete_linkage_sequential(D: np.ndarray, threshold: float, merges: list | None = None) -> np.ndarray:
@@ -102,8 +112,7 @@ def complete_linkage_sequential(D: np.ndarray, threshold: float, merges: list | 
             S[j], S[:, j] = np.nan, np.nan
             S[i, i] = np.nan
             owner[owner == j] = i
-    _, first, inv = np.unique(owner, return_index=True, return_inverse=True)
-    return np.argsort(np.argsort(first))[inv]
+    return _number_by_first_member(owner)
 
 
 def tracklet_distances(segs: WindowTracklets, F: np.ndarray) -> np.ndarray:
@@ -123,7 +132,8 @@ def tracklet_distances(segs: WindowTracklets, F: np.ndarray) -> np.ndarray:
 
     Cost: the epipolar line of every centre in every view is computed once (one batched
     product, (K, C, W) lines, :func:`gymtrack.geometry.epipolar.epipolar_lines`' convention);
-    the point-line distances of all pairs are then one product per view.
+    the point-line distances of all pairs are then one batched product over the frames, every
+    centre against every line in every view, of which each centre's own view is kept.
     """
     K, W = segs.observed.shape
     cam = segs.camera
@@ -131,25 +141,28 @@ def tracklet_distances(segs: WindowTracklets, F: np.ndarray) -> np.ndarray:
         return np.zeros((0, 0))
     C = F.shape[0]
     obs = segs.observed
+    box = segs.box
     # homogeneous centres, all-zero where not observed (their distances vanish), each divided by
     # its box's |w + h| (Eq. 1's normalisation of the distance measured in that box's view)
-    xh = np.concatenate([segs.box[..., :2], np.ones((K, W, 1))], axis=2)
+    xh = np.empty((K, W, 3))
+    xh[..., :2] = box[..., :2]
+    xh[..., 2] = 1.0
     xh[~obs] = 0.0
-    xh /= np.where(obs, np.abs(segs.box[..., 2] + segs.box[..., 3]), 1.0)[..., None]
-    xt = xh.transpose(1, 2, 0)  # (W, 3, K)
-    # lines[c, t, k]: epipolar line in view c of segment k's centre at frame t
-    lines = (F[cam].reshape(K, 3 * C, 3) @ xh.transpose(0, 2, 1)).reshape(K, C, 3, W).transpose(1, 3, 0, 2)
-    # E[t, i, j]: distance in view j of segment j's centre from segment i's line (0 unless both observed)
-    E = np.empty((W, K, K))
-    bounds = np.searchsorted(cam, np.arange(C + 1))  # segments are sorted by camera
-    for c in range(C):
-        a, b = bounds[c], bounds[c + 1]
-        if b > a:
-            L = lines[c]  # (W, K, 3)
-            norm = np.hypot(L[..., 0], L[..., 1])
-            E[:, :, a:b] = (L / np.where(norm > 0, norm, 1.0)[..., None]) @ xt[:, :, a:b]
-    np.abs(E, out=E)
-    S = E.sum(axis=0)
+    scale = np.abs(box[..., 2] + box[..., 3])
+    scale[~obs] = 1.0
+    xh /= scale[..., None]
+    # lines[k, c, :, t]: epipolar line in view c of segment k's centre at frame t, unit normal
+    lines = (F[cam].reshape(K, 3 * C, 3) @ xh.transpose(0, 2, 1)).reshape(K, C, 3, W)
+    l0, l1 = lines[:, :, 0], lines[:, :, 1]
+    norm = np.sqrt(l0 * l0 + l1 * l1)  # (K, C, W)
+    norm[norm == 0] = 1.0
+    lines /= norm[:, :, None]
+    # every centre against every segment's line in every view (C times more products than
+    # needed, but in W matrix products instead of C x W), then each centre's own view picked:
+    # E[t, j, i] = distance in view cam[j] of segment j's centre from segment i's line
+    full = (xh.transpose(1, 0, 2) @ lines.transpose(3, 2, 1, 0).reshape(W, 3, C * K)).reshape(W, K, C, K)
+    E = full[:, np.arange(K), cam, :]  # (W, K, K)
+    S = np.abs(E, out=E).sum(axis=0)
     obsf = obs.astype(np.float64)
     n = obsf @ obsf.T  # shared observed frames
     with np.errstate(invalid="ignore", divide="ignore"):

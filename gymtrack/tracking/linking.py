@@ -61,10 +61,10 @@ def link(D: np.ndarray, gate: float) -> tuple[np.ndarray, np.ndarray]:
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
     rows = np.flatnonzero(allowed.any(axis=1))
     cols = np.flatnonzero(allowed.any(axis=0))
-    sub = allowed[np.ix_(rows, cols)]
+    sub = allowed[rows][:, cols]  # (two takes: cheaper than np.ix_ on small matrices)
     # a disallowed pair costs more than any set of allowed ones could save
     big = 2.0 * gate * (min(len(rows), len(cols)) + 1) + 1.0
-    cost = np.where(sub, D[np.ix_(rows, cols)], big)
+    cost = np.where(sub, D[rows][:, cols], big)
     r, c = linear_sum_assignment(cost)
     keep = sub[r, c]
     return rows[r[keep]], cols[c[keep]]
@@ -139,11 +139,19 @@ def merge_overlaps(
     """
     if len(frame) == 0:
         return Tracks3D.empty()
-    order = np.lexsort((track_id, frame))
+    # one stable argsort of a combined (frame, track) key: cheaper than lexsort of two keys
+    lo = track_id.min()
+    key = (frame - frame.min()) * (track_id.max() - lo + 1) + (track_id - lo)
+    order = np.argsort(key, kind="stable")
+    key = key[order]
     frame, track_id, xyz, top_z, bottom_z, source, n_views = (
         c[order] for c in (frame, track_id, xyz, top_z, bottom_z, source, n_views))
-    start = np.flatnonzero(np.r_[True, (np.diff(frame) != 0) | (np.diff(track_id) != 0)])
-    count = np.diff(np.r_[start, len(frame)])
+    new = np.ones(len(key), bool)  # first estimate of each (frame, track)
+    np.not_equal(key[1:], key[:-1], out=new[1:])
+    start = np.flatnonzero(new)
+    if len(start) == len(key):  # every (frame, track) has one estimate: nothing to average
+        return Tracks3D(frame, track_id, xyz, top_z, bottom_z, source.astype(np.int8), n_views.astype(np.int8))
+    count = np.diff(np.append(start, len(key)))
 
     def mean(v):
         ok = np.isfinite(v)

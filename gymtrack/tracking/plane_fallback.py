@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..geometry.camera import Rig
-from ..geometry.plane import Plane, intersect_rays_plane
+from ..geometry.plane import Plane
 from .clustering import complete_linkage
 from .reconstruct import cluster_members, source_for
 from .types import PLANE, WindowTracklets, WindowTracklets3D
@@ -59,42 +59,73 @@ def _back_projection(rig: Rig) -> tuple[np.ndarray, np.ndarray]:
     return value
 
 
-def plane_candidates(segs: WindowTracklets, rig: Rig, planes: list[Plane]) -> np.ndarray:
+def plane_candidates(
+    segs: WindowTracklets, rig: Rig, planes: list[Plane], which: tuple[str, ...] = ("centre", "top", "bottom")
+) -> np.ndarray:
     """Eq. 5-7 for every segment, frame and plane.
 
-    Returns (3, P, K, W, 3): the intersections of the rays through the box centre, top-centre
-    and bottom-centre points with each plane; NaN where the segment is not valid or the ray
-    misses the plane (parallel, or the plane behind the camera).
+    which: the box points whose rays are used (``centre``, ``top``-centre, ``bottom``-centre).
+    Returns (len(which), P, K, W, 3): the intersections of the rays through those points with
+    each plane; NaN where the segment is not valid or the ray misses the plane (parallel, or
+    the plane behind the camera).
     """
+    return _candidates(segs, rig, planes, which)[0]
+
+
+def _candidates(segs: WindowTracklets, rig: Rig, planes: list[Plane], which: tuple[str, ...]) -> tuple:
+    """:func:`plane_candidates` and (len(which), P, K, W) bool: where the intersection exists."""
     K, W = segs.valid.shape
-    P = len(planes)
-    out = np.full((3, P, K, W, 3), np.nan)
+    P, n = len(planes), len(which)
+    out = np.empty((n, P, K, W, 3))
+    ok = np.zeros((n, P, K, W), bool)
     if K == 0:
-        return out
-    pts = np.concatenate([segs.points(w) for w in ("centre", "top", "bottom")], axis=1)  # (K, 3W, 2)
+        return out, ok
+    pts = np.concatenate([segs.points(w) for w in which], axis=1) if n > 1 else segs.points(which[0])  # (K, nW, 2)
     dirs = ray_directions(rig, segs.camera, pts)
     origins = _back_projection(rig)[1][segs.camera][:, None, :]  # (K, 1, 3) camera centres X^o
     for p, plane in enumerate(planes):
-        X, _ = intersect_rays_plane(origins, dirs, plane)  # (K, 3W, 3)
-        out[:, p] = X.reshape(K, 3, W, 3).transpose(1, 0, 2, 3)
-    return out
+        X, hit = _intersect(origins, dirs, plane)  # (K, nW, 3), (K, nW)
+        out[:, p] = X.reshape(K, n, W, 3).transpose(1, 0, 2, 3)
+        ok[:, p] = hit.reshape(K, n, W).transpose(1, 0, 2)
+    return out, ok
 
 
-def candidate_distances(X: np.ndarray, observed: np.ndarray, camera: np.ndarray) -> np.ndarray:
+def _intersect(origins: np.ndarray, directions: np.ndarray, plane: Plane, min_cos: float = 1e-3) -> tuple:
+    """The points of :func:`gymtrack.geometry.plane.intersect_rays_plane` (NaN where its status is
+    not OK) and where they exist, without the status codes: the same arithmetic, so the same
+    bits, in fewer numpy calls on these small arrays.
+
+    origins: (K, 1, 3), one per segment; directions: (K, n, 3). Returns (X (K, n, 3), ok (K, n)).
+    """
+    d = directions
+    dn = (d.reshape(-1, 3) @ plane.normal).reshape(d.shape[:-1])  # one product, not one per segment
+    dlen = np.linalg.norm(d, axis=-1)
+    # written negated so that zero-length and NaN directions count as parallel (no intersection)
+    parallel = ~(np.abs(dn) >= min_cos * dlen) | ~(dlen > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam = ((plane.point - origins[:, 0]) @ plane.normal)[:, None] / dn  # one origin per segment
+        X = origins + lam[..., None] * d  # inf * 0 for exactly parallel rays: masked below
+    ok = ~(parallel | ~(lam > 0))  # not parallel, plane in front of the camera
+    X[~ok] = np.nan
+    return X, ok
+
+
+def candidate_distances(X: np.ndarray, observed: np.ndarray, camera: np.ndarray, exists: np.ndarray | None = None
+                        ) -> np.ndarray:
     """Eq. 8 on every plane.
 
-    X: (P, K, W, 3) centre candidates; observed: (K, W) bool; camera: (K,).
+    X: (P, K, W, 3) centre candidates; observed: (K, W) bool; camera: (K,); exists: (P, K, W)
+    bool, where the candidate exists (default: where X is finite).
     Returns (P, K, K): mean distance (metres) over frames where both were observed and both
     intersections exist; NaN with no such frame; inf for two segments of one camera.
     """
-    ok = observed[None] & np.all(np.isfinite(X), axis=-1)  # (P, K, W)
+    ok = observed[None] & (np.all(np.isfinite(X), axis=-1) if exists is None else exists)  # (P, K, W)
     shared = ok[:, :, None] & ok[:, None, :]  # (P, K, K, W)
     diff = X[:, :, None] - X[:, None, :]
     d = np.sqrt(np.einsum("pijtk,pijtk->pijt", diff, diff))
     n = shared.sum(axis=-1)
     with np.errstate(invalid="ignore", divide="ignore"):
-        D = np.where(shared, d, 0.0).sum(axis=-1) / n
-    D[n == 0] = np.nan
+        D = np.where(shared, d, 0.0).sum(axis=-1) / n  # 0 / 0: NaN where no frame is shared
     D[:, camera[:, None] == camera[None, :]] = np.inf
     return D
 
@@ -117,13 +148,15 @@ def fuse_on_planes(
     labels: np.ndarray,
     n_cameras: int,
     single: np.ndarray | None = None,
+    exists: np.ndarray | None = None,
 ) -> WindowTracklets3D:
     """Eq. 9: average the matched candidates of each cluster with members from two or more views.
 
     segs: the K segments of the plane stage; cand: (3, P, K, W, 3) from :func:`plane_candidates`;
     Dp: (P, K, K) Eq. 8 distances (to pick each cluster's plane); labels: (K,) clusters with
     at most one segment per camera; single: (K,) bool, segments that may stand alone (a
-    one-member cluster, on the first plane) -- see :func:`plane_stage`. Returns one 3D
+    one-member cluster, on the first plane) -- see :func:`plane_stage`; exists: (3, P, K, W)
+    bool, where the candidates exist (default: where they are finite). Returns one 3D
     tracklet per cluster of >= 2 members (or a permitted single), source plane; ``members``
     index ``segs``.
     """
@@ -139,16 +172,19 @@ def fuse_on_planes(
         return WindowTracklets3D.empty(segs.start, W, n_cameras)
     has = members >= 0
     idx = np.where(has, members, 0)
-    # the plane minimising the mean pairwise distance of the cluster's members
-    pair = has[:, :, None] & has[:, None, :] & ~np.eye(n_cameras, dtype=bool)  # (M, C, C)
-    d = Dp[:, idx[:, :, None], idx[:, None, :]]  # (P, M, C, C)
-    use = pair[None] & np.isfinite(d)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        mean = np.where(use, d, 0.0).sum(axis=(2, 3)) / use.sum(axis=(2, 3))
-    mean[np.isnan(mean)] = np.inf
-    plane = np.argmin(mean, axis=0)  # (M,)
+    if Dp.shape[0] == 1:  # one plane: nothing to choose
+        plane = np.zeros(M, np.int64)
+    else:  # the plane minimising the mean pairwise distance of the cluster's members
+        pair = has[:, :, None] & has[:, None, :] & ~np.eye(n_cameras, dtype=bool)  # (M, C, C)
+        d = Dp[:, idx[:, :, None], idx[:, None, :]]  # (P, M, C, C)
+        use = pair[None] & np.isfinite(d)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mean = np.where(use, d, 0.0).sum(axis=(2, 3)) / use.sum(axis=(2, 3))
+        mean[np.isnan(mean)] = np.inf
+        plane = np.argmin(mean, axis=0)  # (M,)
     c = cand[:, plane[:, None], idx]  # (3, M, C, W, 3)
-    ok = has[None, :, :, None] & np.all(np.isfinite(c), axis=-1)  # (3, M, C, W)
+    exists = np.all(np.isfinite(c), axis=-1) if exists is None else exists[:, plane[:, None], idx]
+    ok = has[None, :, :, None] & exists  # (3, M, C, W)
     with np.errstate(invalid="ignore", divide="ignore"):
         fused = np.where(ok[..., None], c, 0.0).sum(axis=2) / ok.sum(axis=2)[..., None]  # (3, M, W, 3)
     valid = ok[0].any(axis=1)
@@ -188,8 +224,20 @@ def plane_stage(
     any_single = single is not None and bool(single.any())
     if (K < 2 and not any_single) or not planes:
         return WindowTracklets3D.empty(segs.start, W, C)
-    cand = plane_candidates(segs, rig, planes)
-    Dp = candidate_distances(cand[0], segs.observed, segs.camera)
+    if not any_single:
+        # the pairs Eq. 8 could match: other view, not known apart (nor of different oracle
+        # ids), a frame both observed; without any, nothing is fused: skip the geometry
+        obs = segs.observed.astype(np.float64)
+        possible = (segs.camera[:, None] != segs.camera[None, :]) & ((obs @ obs.T) > 0)
+        if labels is not None:
+            possible &= labels[:, None] == labels[None, :]
+        if apart is not None:
+            possible &= ~apart
+        if not possible.any():
+            return WindowTracklets3D.empty(segs.start, W, C)
+    # the centre candidates decide whether anything is fused; the top and bottom ones only then
+    centre, exists = _candidates(segs, rig, planes, ("centre",))
+    Dp = candidate_distances(centre[0], segs.observed, segs.camera, exists[0])
     D = best_plane_distance(Dp)
     if labels is not None:
         D = np.where(labels[:, None] == labels[None, :], D, np.inf)
@@ -200,4 +248,6 @@ def plane_stage(
     if not agree and not any_single:  # no two views agree: every candidate is discarded
         return WindowTracklets3D.empty(segs.start, W, C)
     labels = complete_linkage(D, threshold) if agree else np.arange(K)
-    return fuse_on_planes(segs, cand, Dp, labels, C, single)
+    rest, rest_exists = _candidates(segs, rig, planes, ("top", "bottom"))
+    cand, exists = np.concatenate([centre, rest]), np.concatenate([exists, rest_exists])
+    return fuse_on_planes(segs, cand, Dp, labels, C, single, exists)

@@ -1,7 +1,7 @@
 """3D tracklets by triangulation, and the outlier test (paper Section III-B, Eq. 3-4).
 
 A cluster of 2D segments (at most one per view) is triangulated frame by frame from the views
-whose segment is valid at that frame (Eq. 3, :func:`gymtrack.geometry.triangulation.triangulate`,
+whose segment is valid at that frame (Eq. 3, :func:`gymtrack.geometry.triangulation.triangulate_views`,
 one batched call for the centres, box tops and box bottoms of every cluster and frame of a
 window). The box top-centre and bottom-centre points give the heights of the body's top and
 bottom (used to identify the target, Eq. 13).
@@ -23,8 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..formats.scene import in_box
-from ..geometry.triangulation import triangulate
+from ..geometry.triangulation import triangulate_views
 from .types import INTERPOLATED, PLANE, TRIANGULATION, WindowTracklets, WindowTracklets3D
 
 
@@ -64,20 +63,23 @@ def triangulate_clusters(segs: WindowTracklets, members: np.ndarray, P: np.ndarr
     if M == 0:
         return WindowTracklets3D.empty(segs.start, W, C)
     has = members >= 0
-    b = segs.box[np.where(has, members, 0)]  # (M, C, W, 4), NaN where not valid
-    b[~has] = np.nan
-    half = b[..., 3] / 2
-    x, y = b[..., 0], b[..., 1]
-    # centre, top-centre, bottom-centre points: (3, M, C, W, 2) -> (3, M, W, C, 2)
-    uv = np.stack([np.stack([x, y], -1), np.stack([x, y - half], -1), np.stack([x, y + half], -1)])
-    uv = uv.transpose(0, 1, 3, 2, 4).reshape(3 * M * W, C, 2)
-    X, _ = triangulate(P, uv, iterations=GN_ITERATIONS)  # NaN = view absent
-    X = X.reshape(3, M, W, 3)
-    valid = np.all(np.isfinite(X[0]), axis=-1)
+    b = segs.box[np.where(has, members, 0)].transpose(3, 1, 0, 2)  # (4, C, M, W), NaN where not valid
+    x, y, half = np.where(has.T[:, :, None], b[0], np.nan), b[1], b[3] / 2  # a camera without a member: no point
+    # centre, top-centre and bottom-centre points, views-major: (C, 3 M W) rows of u and of v
+    u = np.empty((C, 3, M, W))
+    v = np.empty((C, 3, M, W))
+    u[:] = x[:, None]
+    v[:, 0] = y
+    np.subtract(y, half, out=v[:, 1])
+    np.add(y, half, out=v[:, 2])
+    X, _ = triangulate_views(P, u.reshape(C, -1), v.reshape(C, -1), iterations=GN_ITERATIONS)  # NaN = view absent
+    X = X.reshape(3, 3, M, W)  # (xyz, point, M, W)
+    centre = np.ascontiguousarray(X[:, 0].transpose(1, 2, 0))  # (M, W, 3)
+    valid = np.isfinite(X[0, 0]) & np.isfinite(X[1, 0]) & np.isfinite(X[2, 0])
     n_views = observed_views(segs, members)
     source = np.where(n_views > 0, TRIANGULATION, INTERPOLATED).astype(np.int8)
     return WindowTracklets3D(
-        segs.start, X[0], X[1][..., 2], X[2][..., 2], valid, source, n_views, members, np.full(M, -1, np.int64)
+        segs.start, centre, X[2, 1], X[2, 2], valid, source, n_views, members, np.full(M, -1, np.int64)
     )
 
 
@@ -86,14 +88,38 @@ def opposite_clusters(members: np.ndarray, opposite: np.ndarray) -> np.ndarray:
 
     members: (M, C) segment per cluster and camera (-1: none); opposite: (C, C) bool table of
     opposite camera pairs (:func:`gymtrack.geometry.views.opposite_pairs`). Returns (M,) bool.
+
+    Each cluster's set of cameras is read as a bit mask and looked up in a table of the
+    opposite pairs' masks (built once per ``opposite``): two numpy calls per window.
     """
-    has = members >= 0
-    two = has.sum(axis=1) == 2
-    out = np.zeros(len(members), bool)
-    if two.any():
-        cams = np.argsort(~has[two], axis=1, kind="stable")[:, :2]  # the two cameras
-        out[two] = opposite[cams[:, 0], cams[:, 1]]
-    return out
+    M, C = members.shape
+    if C > 16:  # (the table would be too large) pick the two cameras explicitly
+        has = members >= 0
+        two = has.sum(axis=1) == 2
+        out = np.zeros(M, bool)
+        if two.any():
+            cams = np.argsort(~has[two], axis=1, kind="stable")[:, :2]  # the two cameras
+            out[two] = opposite[cams[:, 0], cams[:, 1]]
+        return out
+    return _opposite_table(opposite)[(members >= 0) @ (1 << np.arange(C))]
+
+
+_OPPOSITE_TABLES: dict[bytes, np.ndarray] = {}
+
+
+def _opposite_table(opposite: np.ndarray) -> np.ndarray:
+    """(2^C,) bool: True at the camera bit masks of the opposite pairs (exactly two cameras)."""
+    key = np.asarray(opposite, bool).tobytes() + bytes([len(opposite)])
+    table = _OPPOSITE_TABLES.get(key)
+    if table is None:
+        table = np.zeros(1 << len(opposite), bool)
+        i, j = np.nonzero(np.asarray(opposite, bool))
+        keep = i != j
+        table[(1 << i[keep]) | (1 << j[keep])] = True
+        if len(_OPPOSITE_TABLES) > 32:
+            _OPPOSITE_TABLES.clear()
+        _OPPOSITE_TABLES[key] = table
+    return table
 
 
 def outliers(xyz: np.ndarray, valid: np.ndarray, space: np.ndarray, max_speed: float) -> np.ndarray:
@@ -105,18 +131,27 @@ def outliers(xyz: np.ndarray, valid: np.ndarray, space: np.ndarray, max_speed: f
     M, W = valid.shape
     if M == 0:
         return np.zeros(0, bool)
-    outside = valid & ~in_box(np.where(valid[..., None], xyz, 0.0), space)
-    bad = outside.any(axis=1) | ~valid.any(axis=1)
+    # coordinate-major (3, M W) views: comparing with the (3,) space would otherwise run inner
+    # loops of length 3; NaN (not valid) compares False, masked by ``valid``
+    space = np.asarray(space, dtype=np.float64)
+    flat = xyz.reshape(M * W, 3)
+    pts = flat.T
+    inside = ((pts >= space[:3, None]) & (pts <= space[3:, None])).all(axis=0).reshape(M, W)
+    bad = (valid & ~inside).any(axis=1) | ~valid.any(axis=1)
     t = np.arange(W)
-    prev = np.maximum.accumulate(np.where(valid, t, -1), axis=1)
-    prev_before = np.concatenate([np.full((M, 1), -1), prev[:, :-1]], axis=1)  # last valid index < t
-    has_prev = valid & (prev_before >= 0)
-    m, tt = np.nonzero(has_prev)
-    if len(m):
-        p = prev_before[m, tt]
-        jump = np.linalg.norm(xyz[m, tt] - xyz[m, p], axis=1)
+    prev = np.maximum.accumulate(np.where(valid, t, -1), axis=1)  # last valid index <= t
+    # valid points with an earlier valid point in their tracklet: flat indices into the
+    # (M, W - 1) grid of frames 1..W-1 (2D np.nonzero is several times slower)
+    later = np.flatnonzero(valid[:, 1:] & (prev[:, :-1] >= 0))
+    if len(later):
+        row = later // (W - 1)
+        tt = later - row * (W - 1) + 1
+        p = prev[row, tt - 1]  # the last valid index before tt
+        base = row * W
+        d = flat[base + tt] - flat[base + p]
+        jump = np.linalg.norm(d, axis=1)
         fast = jump > max_speed * (tt - p)
-        bad[m[fast]] = True
+        bad[row[fast]] = True
     return bad
 
 

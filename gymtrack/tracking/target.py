@@ -82,7 +82,13 @@ class TargetSelector:
     def select(self, a: int, b: int, frame: np.ndarray, tid: np.ndarray, ind: np.ndarray, inperf: np.ndarray,
                ended: dict[int, int]) -> np.ndarray:
         """Final frames ``a..b`` at once: rows (n,) of their track points (frame, tid, ind, inperf).
-        Returns (b - a + 1,) the target's track id per frame (-1: none)."""
+        Returns (b - a + 1,) the target's track id per frame (-1: none).
+
+        The rule is applied frame by frame, but in runs: while the target stays, and while no
+        track qualifies, every frame of the run is decided by one window count per frame
+        (cumulative sums), so the cost is a few numpy calls per change of target rather than
+        per frame.
+        """
         keep = self._frame > a - self.delta
         self._frame = np.concatenate([self._frame[keep], frame])
         self._tid = np.concatenate([self._tid[keep], tid])
@@ -93,35 +99,76 @@ class TargetSelector:
         if len(self._frame) == 0:  # nobody in the last Delta frames: no target, nothing to identify
             self.target = -1
             return out
-        ended_ids = np.fromiter(ended, np.int64, len(ended)) if ended else None
         # beyond the last point + Delta the window is empty: no target (spares long pauses a loop)
         upto = min(b, int(self._frame.max()) + self.delta - 1)
-        if upto < b:
-            out[upto - a + 1:] = -1
-        for f in range(a, upto + 1):
-            win = (self._frame > f - self.delta) & (self._frame <= f)
+        f = a
+        while f <= upto:
             if self.target >= 0:
-                t = self.target
-                gone = t in ended and f > ended[t]
-                if gone or np.count_nonzero(win & self._inperf & (self._tid == t)) <= half:
-                    self.target = -1
-            if self.target < 0:
-                q = win & self._ind
-                if q.any():
-                    ids, counts = np.unique(self._tid[q], return_counts=True)
-                    if ended_ids is not None:  # an ended track gets no more points: never (re-)identify it
-                        live = ~np.isin(ids, ended_ids)
-                        ids, counts = ids[live], counts[live]
-                    if len(counts) and counts.max() > half:
-                        self.target = int(ids[np.argmax(counts)])  # first maximum = smallest id among ties
-                        self.identifications += 1
-                        if self.last_target >= 0 and self.target != self.last_target:
-                            self.switches += 1
-                        self.last_target = self.target
-            out[f - a] = self.target
+                f = self._keep_target(f, upto, out, a, half, ended)
+            else:
+                f = self._identify(f, upto, out, a, half, ended)
         if upto < b:
             self.target = -1
         return out
+
+    def _window_counts(self, rows: np.ndarray, f0: int, f1: int, groups: np.ndarray | None = None,
+                       n_groups: int = 1) -> np.ndarray:
+        """Rows (mask over the state) counted in the window ``(f - Delta, f]`` of every frame
+        ``f0..f1``, per group (``groups``: (n,) group index 0..n_groups-1 of the masked rows).
+        Returns (n_groups, f1 - f0 + 1)."""
+        base = f0 - self.delta + 1  # the earliest frame any of these windows covers
+        L = f1 - base + 1
+        fr = self._frame[rows] - base
+        inside = (fr >= 0) & (fr < L)
+        g = 0 if groups is None else groups[inside]
+        hist = np.bincount(g * L + fr[inside], minlength=n_groups * L).reshape(n_groups, L)
+        cum = np.zeros((n_groups, L + 1), np.int64)
+        np.cumsum(hist, axis=1, out=cum[:, 1:])
+        return cum[:, self.delta:] - cum[:, : L + 1 - self.delta]
+
+    def _keep_target(self, f: int, upto: int, out: np.ndarray, a: int, half: float, ended: dict[int, int]) -> int:
+        """Frames f.. while the target neither ended nor left; returns the first frame it is lost at
+        (the target is then -1 there) or ``upto + 1``."""
+        t = self.target
+        stop = upto
+        if t in ended:
+            stop = min(stop, max(ended[t], f - 1))  # gone at frames after its last one
+        if stop >= f:
+            n = self._window_counts(self._inperf & (self._tid == t), f, stop)[0]
+            lost = np.flatnonzero(n <= half)
+            if len(lost):
+                stop = f + int(lost[0]) - 1
+            out[f - a: stop - a + 1] = t
+        if stop < upto:  # lost at stop + 1: re-identification may start at that same frame
+            self.target = -1
+        return stop + 1
+
+    def _identify(self, f: int, upto: int, out: np.ndarray, a: int, half: float, ended: dict[int, int]) -> int:
+        """Frames f.. while no target: the first frame a live track qualifies (Eq. 13) gets it.
+        Returns the frame after the last one decided."""
+        q = self._ind
+        if ended:  # an ended track gets no more points: never (re-)identify it
+            q = q & ~np.isin(self._tid, np.fromiter(ended, np.int64, len(ended)))
+        rows = np.flatnonzero(q & (self._frame <= upto))
+        if len(rows) == 0:
+            return upto + 1
+        ids, inv = np.unique(self._tid[rows], return_inverse=True)
+        mask = np.zeros(len(self._frame), bool)
+        mask[rows] = True
+        grp = np.full(len(self._frame), -1, np.int64)
+        grp[rows] = inv
+        counts = self._window_counts(mask, f, upto, grp[mask], len(ids))  # (tracks, frames)
+        hit = np.flatnonzero(counts.max(axis=0) > half)
+        if len(hit) == 0:
+            return upto + 1
+        k = int(hit[0])
+        self.target = int(ids[np.argmax(counts[:, k])])  # first maximum = smallest id among ties
+        self.identifications += 1
+        if self.last_target >= 0 and self.target != self.last_target:
+            self.switches += 1
+        self.last_target = self.target
+        out[f + k - a] = self.target
+        return f + k + 1
 
 
 @lru_cache(maxsize=None)
@@ -133,91 +180,191 @@ def _smoothing_weights(left: int, right: int, order: int) -> np.ndarray:
     return savgol_coeffs(n, min(order, n - 1), pos=left, use="dot")
 
 
+#: columns of the smoother's rows, in order: frame (n,) int64, track_id (n,) int64, xyz (n, 3),
+#: top_z (n,), bottom_z (n,), source (n,) int8, ell (n, C)
+ROW_FIELDS = ("frame", "track_id", "xyz", "top_z", "bottom_z", "source", "ell")
+
+
+def _rows(frame, track_id, xyz, top_z, bottom_z, source, ell) -> tuple:
+    """Columns with the smoother's dtypes (see :data:`ROW_FIELDS`)."""
+    return (np.asarray(frame, np.int64), np.asarray(track_id, np.int64), np.asarray(xyz, np.float64),
+            np.asarray(top_z, np.float64), np.asarray(bottom_z, np.float64), np.asarray(source, np.int8),
+            np.asarray(ell, np.float64))
+
+
+def _cat(parts: list) -> tuple:
+    return parts[0] if len(parts) == 1 else tuple(np.concatenate(c) for c in zip(*parts))
+
+
+def _take(rows: tuple, index) -> tuple:
+    return tuple(c[index] for c in rows)
+
+
 class TargetSmoother:
     """Gap filling and centred smoothing of the target trajectory, streaming.
 
-    Points are pushed in frame order as ``(frame, track_id, xyz (3,), top_z, bottom_z, source,
-    ell (C,))`` (``ell``: the target's ``max(w, h)`` per view, NaN where no detection).
-    Emitted rows have the same layout with ``xyz`` smoothed. State: the points of the current
-    segment not yet emitted plus ``half_window`` points of context.
+    Points are pushed in frame order, either as columns (:meth:`push_rows`: ``frame (n,),
+    track_id (n,), xyz (n, 3), top_z (n,), bottom_z (n,), source (n,), ell (n, C)``, see
+    :data:`ROW_FIELDS`) or one at a time as a tuple ``(frame, track_id, xyz (3,), top_z,
+    bottom_z, source, ell (C,))`` (:meth:`push`). ``ell``: the target's ``max(w, h)`` per view,
+    NaN where no detection. Emitted rows have the same layout with ``xyz`` smoothed. State: the
+    points of the current segment not yet emitted plus ``half_window`` points of context.
     """
 
     def __init__(self, max_gap: int = 7, half_window: int = SMOOTH_HALF_WINDOW, order: int = SMOOTH_ORDER):
         self.max_gap = int(max_gap)
         self.h = int(half_window)
         self.order = int(order)
-        self._buf: list[tuple] = []
+        self._buf: tuple | None = None  # columns of the current segment's kept points
         self._done = 0  # points of _buf already emitted (context)
 
     def __len__(self) -> int:
-        return len(self._buf)
+        return 0 if self._buf is None else len(self._buf[0])
 
+    # ------------------------------------------------------------ tuple interface
     def push(self, point: tuple) -> list[tuple]:
-        out: list[tuple] = []
-        if self._buf:
-            last = self._buf[-1]
-            gap = point[0] - last[0] - 1
-            if gap > self.max_gap:
-                out += self.close()
-            elif gap > 0:
-                a = (np.arange(1, gap + 1) / (gap + 1))[:, None]
-                xyz = last[2] * (1 - a) + point[2] * a
-                top = last[3] * (1 - a[:, 0]) + point[3] * a[:, 0]
-                bot = last[4] * (1 - a[:, 0]) + point[4] * a[:, 0]
-                nan = np.full_like(point[6], np.nan)
-                for g in range(gap):
-                    self._buf.append((last[0] + g + 1, point[1], xyz[g], top[g], bot[g], INTERPOLATED, nan))
-        self._buf.append(point)
-        out += self._emit(final=False)
-        return out
+        """Push one point (tuple); returns the emitted points as tuples."""
+        f, tid, xyz, top, bot, src, ell = point
+        return _tuples(self.push_rows([f], [tid], np.reshape(xyz, (1, 3)), [top], [bot], [src],
+                                      np.reshape(ell, (1, -1))))
 
     def advance(self, final_frame: int) -> list[tuple]:
         """Every frame up to ``final_frame`` is final: close the segment if its gap can no longer be filled."""
-        if self._buf and final_frame - self._buf[-1][0] > self.max_gap:
-            return self.close()
-        return []
+        return _tuples(self.advance_rows(final_frame))
 
     def close(self) -> list[tuple]:
-        out = self._emit(final=True)
-        self._buf, self._done = [], 0
-        return out
+        """End the current segment: emit all its points (as tuples)."""
+        return _tuples(self.close_rows())
 
-    def _emit(self, final: bool) -> list[tuple]:
-        buf, h = self._buf, self.h
-        n = len(buf)
-        ready = n if final else n - h
+    # ------------------------------------------------------------ column interface
+    def push_rows(self, frame, track_id, xyz, top_z, bottom_z, source, ell) -> tuple | None:
+        """Push n points in increasing frame order (columns, see the class docstring).
+
+        Returns the emitted rows as columns, or None when nothing is emitted. Same result as
+        pushing the points one by one: gaps of at most ``max_gap`` frames are filled by
+        linear interpolation, longer gaps end the segment (all its points are emitted)."""
+        if len(frame) == 0:
+            return None
+        new = _rows(frame, track_id, xyz, top_z, bottom_z, source, ell)
+        done = self._done
+        seq = new if self._buf is None else tuple(np.concatenate(c) for c in zip(self._buf, new))
+        gap = np.diff(seq[0]) - 1
+        ends = []
+        if len(gap) and gap.max() > 0:  # (rare) gaps: filled, or ending the segment
+            fill = np.flatnonzero((gap > 0) & (gap <= self.max_gap))
+            if len(fill):  # interpolated points, then everything back in frame order
+                seq = _cat([seq, self._interpolate(seq, fill, gap[fill])])
+                seq = _take(seq, np.argsort(seq[0], kind="stable"))
+                gap = np.diff(seq[0]) - 1
+            ends = (np.flatnonzero(gap > self.max_gap) + 1).tolist()  # segment boundaries
         out = []
-        if ready > self._done:
-            xyz = np.stack([p[2] for p in buf])
-            for i in range(self._done, ready):
-                left, right = min(h, i), min(h, n - 1 - i)
-                w = _smoothing_weights(left, right, self.order)
-                p = buf[i]
-                out.append((p[0], p[1], w @ xyz[i - left : i + right + 1], *p[3:]))
-            self._done = ready
-        if self._done > h:  # keep h emitted points as left context
-            drop = self._done - h
-            self._buf = buf[drop:]
-            self._done -= drop
-        return out
+        start = 0
+        for end in ends:  # every segment but the last is complete
+            out.append(self._smooth(_take(seq, slice(start, end)), done, end - start))
+            start, done = end, 0
+        last = _take(seq, slice(start, None)) if start else seq
+        n = len(last[0])
+        ready = max(done, n - self.h)
+        out.append(self._smooth(last, done, ready))
+        drop = max(ready - self.h, 0)  # keep h emitted points as left context
+        self._buf, self._done = (_take(last, slice(drop, None)) if drop else last), ready - drop
+        out = [o for o in out if o is not None]
+        return _cat(out) if out else None
+
+    def advance_rows(self, final_frame: int) -> tuple | None:
+        """Column form of :meth:`advance`."""
+        if self._buf is not None and final_frame - int(self._buf[0][-1]) > self.max_gap:
+            return self.close_rows()
+        return None
+
+    def close_rows(self) -> tuple | None:
+        """Column form of :meth:`close`."""
+        buf, done = self._buf, self._done
+        self._buf, self._done = None, 0
+        if buf is None or len(buf[0]) <= done:
+            return None
+        return self._smooth(buf, done, len(buf[0]))
+
+    def _interpolate(self, seq: tuple, after: np.ndarray, gap: np.ndarray) -> tuple:
+        """Rows filling the gaps after points ``after`` (gaps of ``gap`` frames): linear in xyz and
+        heights, the next point's track id, source interpolated, no detections."""
+        i = np.repeat(after, gap)
+        k = np.arange(len(i)) - np.repeat(np.cumsum(gap) - gap, gap) + 1  # 1..gap within each gap
+        a = k / np.repeat(gap + 1, gap)
+        fr, tid, xyz, top, bot, _, ell = seq
+        a1 = a[:, None]
+        return (fr[i] + k, tid[i + 1], xyz[i] * (1 - a1) + xyz[i + 1] * a1, top[i] * (1 - a) + top[i + 1] * a,
+                bot[i] * (1 - a) + bot[i + 1] * a, np.full(len(i), INTERPOLATED, np.int8),
+                np.full((len(i), ell.shape[1]), np.nan))
+
+    def _smooth(self, seg: tuple, lo: int, hi: int) -> tuple | None:
+        """Rows lo..hi-1 of a segment's points (``seg``, starting with its context) with xyz
+        smoothed over the centred window, truncated at the segment's ends: points before ``lo``
+        are context, points after the segment's last one do not exist (yet)."""
+        if hi <= lo:
+            return None
+        h = self.h
+        X = seg[2]
+        n = len(X)
+        xyz = np.empty((hi - lo, 3))
+        a, b = max(lo, h), min(hi, n - h)  # points a..b-1 have their whole window: one set of weights
+        if b > a:  # (m, 2h + 1, 3) windows gathered at once (sliding_window_view costs more on a few rows)
+            win = X[np.arange(a, b)[:, None] + np.arange(-h, h + 1)]
+            xyz[a - lo: b - lo] = _smoothing_weights(h, h, self.order) @ win
+        else:
+            a = b = hi
+        for c in [*range(lo, a), *range(b, hi)]:  # a few points near the segment's ends
+            left, right = min(h, c), min(h, n - 1 - c)
+            xyz[c - lo] = _smoothing_weights(left, right, self.order) @ X[c - left: c + right + 1]
+        rows = _take(seg, slice(lo, hi))
+        return rows[:2] + (xyz,) + rows[3:]
+
+
+def _tuples(rows: tuple | None) -> list[tuple]:
+    """Columns -> list of point tuples ``(frame, track_id, xyz, top_z, bottom_z, source, ell)``."""
+    if rows is None:
+        return []
+    fr, tid, xyz, top, bot, src, ell = rows
+    return [(int(fr[k]), int(tid[k]), xyz[k], float(top[k]), float(bot[k]), int(src[k]), ell[k])
+            for k in range(len(fr))]
 
 
 _RIG_ARRAYS: dict[int, tuple] = {}
 
 
 def _rig_arrays(rig: Rig) -> tuple:
-    """(R (C,3,3), t (C,3), K (C,3,3), dist (C,8)) of a rig, cached per rig object."""
+    """(R (C,3,3), t (C,3), K (C,3,3), dist (C,8), R as a (3, 3C) matrix for ``X @ R_cols``,
+    image sizes (C, 2)) of a rig, cached per rig object."""
     hit = _RIG_ARRAYS.get(id(rig))
     if hit is not None and hit[0] is rig:
         return hit[1]
     dist = np.zeros((len(rig), 8))
     for i, c in enumerate(rig):
         dist[i, : c.dist.size] = c.dist[:8]
-    arrays = (np.stack([c.R for c in rig]), np.stack([c.t for c in rig]), np.stack([c.K for c in rig]), dist)
+    R = np.stack([c.R for c in rig])
+    arrays = (R, np.stack([c.t for c in rig]), np.stack([c.K for c in rig]), dist,
+              np.ascontiguousarray(R.transpose(2, 0, 1).reshape(3, -1)),
+              np.array([cam.size for cam in rig], dtype=np.float64))
     if len(_RIG_ARRAYS) > 16:
         _RIG_ARRAYS.clear()
     _RIG_ARRAYS[id(rig)] = (rig, arrays)
     return arrays
+
+
+def _project(rig: Rig, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`project_all` as separate (N, C) arrays u, v, depth."""
+    R, t, K, dist, R_cols, _ = _rig_arrays(rig)
+    X = np.asarray(X, dtype=np.float64)
+    Xc = (X @ R_cols).reshape(len(X), -1, 3) + t  # (N, C, 3) camera coordinates, one matrix product
+    z = Xc[..., 2]
+    front = z > 1e-12
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = np.where(front, Xc[..., 0] / z, np.nan)
+        y = np.where(front, Xc[..., 1] / z, np.nan)
+    x, y = _distort_normalised(x, y, dist.T)
+    u = K[:, 0, 0] * x + K[:, 0, 1] * y + K[:, 0, 2]
+    v = K[:, 1, 1] * y + K[:, 1, 2]
+    return u, v, z
 
 
 def project_all(rig: Rig, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -226,15 +373,7 @@ def project_all(rig: Rig, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     X: (N, 3) world points. Returns (uv (N, C, 2), depth (N, C)); uv is NaN behind a camera.
     Same model as :meth:`Camera.project`, vectorised over the cameras.
     """
-    R, t, K, dist = _rig_arrays(rig)
-    Xc = np.einsum("cij,nj->nci", R, np.asarray(X, dtype=np.float64)) + t  # (N, C, 3)
-    z = Xc[..., 2]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x = np.where(z > 1e-12, Xc[..., 0] / z, np.nan)
-        y = np.where(z > 1e-12, Xc[..., 1] / z, np.nan)
-    x, y = _distort_normalised(x, y, dist.T)
-    u = K[:, 0, 0] * x + K[:, 0, 1] * y + K[:, 0, 2]
-    v = K[:, 1, 1] * y + K[:, 1, 2]
+    u, v, z = _project(rig, X)
     return np.stack([u, v], axis=-1), z
 
 
@@ -256,20 +395,19 @@ def buffered_boxes(
     Returns (box (N, C, 4) centre-form raw-pixel squares, ok (N, C) bool).
     """
     N, C = ell.shape
-    box = np.full((N, C, 4), np.nan)
-    ok = np.zeros((N, C), bool)
     if N == 0:
-        return box, ok
+        return np.full((N, C, 4), np.nan), np.zeros((N, C), bool)
     mem_ell = memory.setdefault("ell", np.full(C, np.nan))
     mem_depth = memory.setdefault("depth", np.full(C, np.nan))
-    uv, depth = project_all(rig, xyz)
+    u, v, depth = _project(rig, xyz)
     seen = np.isfinite(ell)
     # carry the last seen size forward, scaled by depth (apparent size ~ 1 / depth)
     last = np.maximum.accumulate(np.where(seen, np.arange(N)[:, None], -1), axis=0)
     prev = np.maximum(last, 0)
     cols = np.arange(C)
-    src_ell = np.where(last >= 0, ell[prev, cols], mem_ell)
-    src_depth = np.where(last >= 0, depth[prev, cols], mem_depth)
+    known = last >= 0
+    src_ell = np.where(known, ell[prev, cols], mem_ell)
+    src_depth = np.where(known, depth[prev, cols], mem_depth)
     with np.errstate(invalid="ignore", divide="ignore"):
         size = np.where(seen, ell, src_ell * src_depth / depth)
     never = ~np.isfinite(size)
@@ -278,12 +416,13 @@ def buffered_boxes(
         tops, _ = project_all(rig, np.column_stack([xyz[n, :2], top_z[n]]))
         bots, _ = project_all(rig, np.column_stack([xyz[n, :2], bottom_z[n]]))
         size[n, c] = np.linalg.norm(tops[np.arange(len(n)), c] - bots[np.arange(len(n)), c], axis=1)
-    side = box_scale * size
-    box[..., :2] = uv
-    box[..., 2] = box[..., 3] = side
-    sizes = np.array([cam.size for cam in rig], dtype=np.float64)  # (C, 2) width, height
+    box = np.empty((N, C, 4))  # every component written below
+    box[..., 0] = u
+    box[..., 1] = v
+    box[..., 2] = box[..., 3] = box_scale * size
+    sizes = _rig_arrays(rig)[5]  # (C, 2) width, height
     with np.errstate(invalid="ignore"):
-        ok = (depth > 0) & (size > 0) & np.all((uv >= 0) & (uv <= sizes), axis=-1)
+        ok = (depth > 0) & (size > 0) & (u >= 0) & (u <= sizes[:, 0]) & (v >= 0) & (v <= sizes[:, 1])
     has = seen.any(axis=0)
     if has.any():
         i = N - 1 - np.argmax(seen[::-1], axis=0)  # last row with a detection, per camera

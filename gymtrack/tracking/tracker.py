@@ -272,16 +272,20 @@ class Tracker:
         if self._undist is None or len(box) == 0:
             return box.copy()
         n = len(box)
-        corners = np.concatenate([box[:, :2] - box[:, 2:] / 2, box[:, :2] + box[:, 2:] / 2])
-        und = self._undist(np.concatenate([camera, camera]), corners)
+        centre, half = box[:, :2], box[:, 2:] / 2
+        und = self._undist(np.concatenate([camera, camera]), np.concatenate([centre - half, centre + half]))
         tl, br = und[:n], und[n:]
-        return np.concatenate([(tl + br) / 2, br - tl], axis=1)
+        out = np.empty((n, 4))  # written in place: no concatenation of the halves
+        np.add(tl, br, out=out[:, :2])
+        out[:, :2] /= 2
+        np.subtract(br, tl, out=out[:, 2:])
+        return out
 
     def _flush_pending(self, start: int) -> None:
         """Undistort the boxes received since the last window and drop the final frames' boxes."""
         t = self._table
-        keep = t["frame"] >= start
-        parts = [{k: v[keep] for k, v in t.items()}]
+        # the table is in arrival (frame) order: the rows kept are a suffix, sliced without a copy
+        cut = int(np.searchsorted(t["frame"], start))
         if self._pending:
             frames, cams, tids, raws, scores = zip(*self._pending)
             self._pending = []
@@ -291,10 +295,11 @@ class Tracker:
             self._det_counter += len(c)
             if self.association == "iou":
                 self.read += np.bincount(c, minlength=self.n_cameras)
-            parts.append({"frame": f, "camera": c, "track2d": tid, "raw": raw,
-                          "score": np.concatenate(scores).astype(np.float32), "det": det,
-                          "ubox": self._undistort(c, raw)})
-        self._table = {k: np.concatenate([p[k] for p in parts]) for k in t}
+            new = {"frame": f, "camera": c, "track2d": tid, "raw": raw,
+                   "score": np.concatenate(scores).astype(np.float32), "det": det, "ubox": self._undistort(c, raw)}
+            self._table = {k: np.concatenate([v[cut:], new[k]]) for k, v in t.items()}
+        elif cut:
+            self._table = {k: v[cut:] for k, v in t.items()}
 
     # ================================================================ one window (stages 2-6)
     def _process_window(self, start: int) -> None:
@@ -353,7 +358,7 @@ class Tracker:
                 plane_labels = np.unique(sub.track2d // C, return_inverse=True)[1]
             # beyond the paper: two segments the epipolar test (Eq. 2) says are different people
             # may not be fused on the plane either (their centre rays can still meet there: a phantom)
-            apart = None if D2 is None else D2[np.ix_(to_plane, to_plane)] >= p.cluster_2d
+            apart = None if D2 is None else D2[to_plane][:, to_plane] >= p.cluster_2d
             # beyond the paper: a view left alone may continue, on the plane, the 3D track its 2D
             # track already belongs to (kept below only if it links to that track)
             single = np.isin(sub.track2d, self._prev_2d)
@@ -457,7 +462,7 @@ class Tracker:
         """Eq. 12: every (frame, track) estimate from the windows covering the frame, averaged."""
         if not self._rec3d:
             return Tracks3D.empty()
-        cols = [np.concatenate(c) for c in zip(*self._rec3d)]
+        cols = [np.concatenate(c) for c in zip(*self._rec3d)] if len(self._rec3d) > 1 else list(self._rec3d[0])
         done = cols[0] <= upto
         self._rec3d = [tuple(c[~done] for c in cols)] if not done.all() else []
         out = merge_overlaps(*(c[done] for c in cols))
@@ -467,22 +472,31 @@ class Tracker:
         """The tracks' boxes: per detection the latest window's track wins; one box per (frame, view, track)."""
         if not self._rec2d:
             return Detections.empty(self.names)
-        cols = [np.concatenate(c) for c in zip(*self._rec2d)]
+        cols = [np.concatenate(c) for c in zip(*self._rec2d)] if len(self._rec2d) > 1 else list(self._rec2d[0])
         done = cols[1] <= upto
         self._rec2d = [tuple(c[~done] for c in cols)] if not done.all() else []
         det, frame, cam, tid, win = (c[done] for c in cols)
-        order = np.argsort(-win, kind="stable")
-        det, frame, cam, tid = det[order], frame[order], cam[order], tid[order]
-        _, first = np.unique(det, return_index=True)
+
+        def group_starts(keys):  # sorted keys -> True at the first row of every run of equal keys
+            starts = np.ones(len(keys), bool)
+            np.not_equal(keys[1:], keys[:-1], out=starts[1:])
+            return starts
+
+        # two stable sorts, each keeping the first row of every group (cheaper than np.unique):
+        # per detection the latest window (ties: the earlier record) ...
+        order = np.lexsort((-win, det))
+        first = order[group_starts(det[order])]
         det, frame, cam, tid = det[first], frame[first], cam[first], tid[first]
+        # ... then per (frame, view, track) the smallest detection; the result is in
+        # (frame, view, track) order, the output order
         key = (frame * self.n_cameras + cam) * (self._next_track_id + 1) + tid
-        _, first = np.unique(key, return_index=True)
+        order = np.lexsort((det, key))
+        first = order[group_starts(key[order])]
         det, frame, cam, tid = det[first], frame[first], cam[first], tid[first]
         t = self._table
         row = np.searchsorted(t["det"], det)
         self.used += np.bincount(cam, minlength=self.n_cameras)
-        out = Detections.from_arrays(frame, cam, t["raw"][row], self.names, score=t["score"][row], track_id=tid)
-        return out.select(np.lexsort((out.track_id, out.camera, out.frame)))
+        return Detections.from_arrays(frame, cam, t["raw"][row], self.names, score=t["score"][row], track_id=tid)
 
     def _select_target(self, a: int, b: int, tracks: Tracks3D, boxes: Detections) -> tuple[Target, Detections]:
         """Eq. 13 for the final frames a..b, then gap filling, smoothing and Eq. 14 boxes."""
@@ -490,37 +504,38 @@ class Tracker:
         ind, inperf = identify_indicator(tracks.xyz, tracks.top_z, tracks.bottom_z, self.perf,
                                          sc.target.h_top, sc.target.h_bot)
         target = self.selector.select(a, b, tracks.frame, tracks.track_id, ind, inperf, self._ended)  # (b-a+1,)
-        emitted: list[tuple] = []
+        emitted: list[tuple | None] = []  # column tuples (see target.ROW_FIELDS)
         if np.any(target >= 0):
             j = np.flatnonzero(tracks.track_id == target[tracks.frame - a])  # the target's point per frame
             mine = boxes.track_id == target[boxes.frame - a]
             ell = np.full((b - a + 1, self.n_cameras), np.nan)  # max(w, h) of its boxes per view
             ell[boxes.frame[mine] - a, boxes.camera[mine]] = boxes.box[mine, 2:].max(axis=1)
-            for i in j.tolist():
-                f = int(tracks.frame[i])
-                emitted += self.smoother.push((f, int(tracks.track_id[i]), tracks.xyz[i], tracks.top_z[i],
-                                               tracks.bottom_z[i], int(tracks.source[i]), ell[f - a]))
-        emitted += self.smoother.advance(b)
+            f = tracks.frame[j]
+            # all the window's target points in one call (columns), not one tuple per point
+            emitted.append(self.smoother.push_rows(f, tracks.track_id[j], tracks.xyz[j], tracks.top_z[j],
+                                                   tracks.bottom_z[j], tracks.source[j], ell[f - a]))
+        emitted.append(self.smoother.advance_rows(b))
         # forget ended tracks that can no longer matter
         horizon = b - self.params.identify_frames
         for tid in [k for k, v in self._ended.items() if v < horizon and k != self.selector.target]:
             del self._ended[tid]
-        return self._target_rows(emitted)
+        return self._target_rows([e for e in emitted if e is not None])
 
     def _emit_target(self, emitted: list[tuple]) -> None:
+        """Output the target points the smoother emitted outside a finalisation (point tuples)."""
         if emitted:
-            self._out.append(TrackerOutput(Tracks3D.empty(), Detections.empty(self.names), *self._target_rows(emitted)))
+            f, tid, xyz, top, bot, src, ell = zip(*emitted)  # point tuples -> columns
+            rows = [(np.array(f, np.int64), np.array(tid, np.int64), np.stack(xyz), np.array(top, np.float64),
+                     np.array(bot, np.float64), np.array(src, np.int8), np.stack(ell))]
+            self._out.append(TrackerOutput(Tracks3D.empty(), Detections.empty(self.names), *self._target_rows(rows)))
 
     def _target_rows(self, emitted: list[tuple]) -> tuple[Target, Detections]:
+        """Smoothed target rows (a list of column tuples, see :data:`~.target.ROW_FIELDS`) ->
+        the target and its Eq. 14 boxes."""
         if not emitted:
             return Target.empty(), Detections.empty(self.names)
-        frame = np.array([e[0] for e in emitted], np.int64)
-        tid = np.array([e[1] for e in emitted], np.int64)
-        xyz = np.stack([e[2] for e in emitted])
-        top = np.array([e[3] for e in emitted], np.float64)
-        bot = np.array([e[4] for e in emitted], np.float64)
-        src = np.array([e[5] for e in emitted], np.int8)
-        ell = np.stack([e[6] for e in emitted])
+        frame, tid, xyz, top, bot, src, ell = emitted[0] if len(emitted) == 1 else (
+            np.concatenate(c) for c in zip(*emitted))
         self.counts["target_frames"] += len(frame)
         box, ok = buffered_boxes(self.rig, xyz, top, bot, ell, self.params.box_scale, self._box_memory)
         n, c = np.nonzero(ok)

@@ -63,19 +63,25 @@ class UndistortTables:
         return None
 
     def _stack(self):
-        """All tables in one (C', ny, nx, 2) array (padded to a common shape) for one vectorised lookup."""
+        """All tables in one flat array per coordinate (padded to a common grid shape) and per-camera
+        parameter columns, so that a lookup is one gather of parameters and a few 1D gathers."""
         cams = sorted(self.tables)
+        C = len(self.rig)
         ny = max(self.tables[c][0].shape[0] for c in cams)
         nx = max(self.tables[c][0].shape[1] for c in cams)
-        stacked = np.full((len(self.rig), ny, nx, 2), np.nan)
-        lo = np.zeros((len(self.rig), 2))
-        step = np.ones(len(self.rig))
-        size = np.zeros((len(self.rig), 2))  # usable grid extent (cells) per camera
+        stacked = np.full((C, ny, nx, 2), np.nan)
+        # rows, per camera: grid origin x, y; step; usable grid extent in cells x, y (-1 without a
+        # table, so that no pixel is inside it)
+        par = np.tile(np.array([[0.0], [0.0], [1.0], [-1.0], [-1.0]]), (1, C))
+        # rows, per camera: largest first cell index in x and y, the camera's offset in the flat table
+        ipar = np.zeros((3, C), np.int64)
         for c in cams:
             t, o, s = self.tables[c]
             stacked[c, : t.shape[0], : t.shape[1]] = t
-            lo[c], step[c], size[c] = o, s, (t.shape[1] - 1, t.shape[0] - 1)
-        self._stacked = (stacked, lo, step, size, np.isin(np.arange(len(self.rig)), cams))
+            par[:, c] = (o[0], o[1], s, t.shape[1] - 1, t.shape[0] - 1)
+            ipar[:, c] = (max(t.shape[1] - 2, 0), max(t.shape[0] - 2, 0), c * ny * nx)
+        flat = stacked.reshape(C * ny * nx, 2)
+        self._stacked = (flat[:, 0].copy(), flat[:, 1].copy(), nx, par, ipar, np.isin(np.arange(C), cams))
 
     def __call__(self, camera: np.ndarray, uv: np.ndarray) -> np.ndarray:
         """Undistort pixels: camera (N,) indices, uv (N, 2) raw pixels -> (N, 2) undistorted pixels."""
@@ -83,16 +89,25 @@ class UndistortTables:
         if self.tables:
             if not hasattr(self, "_stacked"):
                 self._stack()
-            table, lo, step, size, has = self._stacked
-            g = (out - lo[camera]) / step[camera][:, None]
-            use = has[camera] & np.all((g >= 0) & (g <= size[camera]), axis=1)
-            i0 = np.clip(np.floor(g).astype(np.int64), 0, np.maximum(size[camera].astype(np.int64) - 1, 0))
-            f = g - i0
-            c, x0, y0 = camera, i0[:, 0], i0[:, 1]
-            fx, fy = f[:, :1], f[:, 1:]
-            top = table[c, y0, x0] * (1 - fx) + table[c, y0, x0 + 1] * fx
-            bottom = table[c, y0 + 1, x0] * (1 - fx) + table[c, y0 + 1, x0 + 1] * fx
-            out = np.where(use[:, None], top * (1 - fy) + bottom * fy, out)
+            table_u, table_v, nx, par, ipar, has = self._stacked
+            # separate 1D arrays per coordinate: numpy is slow on (N, 2) arrays broadcast
+            # against (N, 1) columns (an inner loop of length 2)
+            lox, loy, step, sizex, sizey = np.take(par, camera, axis=1)
+            hix, hiy, base = np.take(ipar, camera, axis=1)
+            u, v = out[:, 0], out[:, 1]
+            gx, gy = (u - lox) / step, (v - loy) / step
+            use = (gx >= 0) & (gy >= 0) & (gx <= sizex) & (gy <= sizey)
+            with np.errstate(invalid="ignore"):  # NaN pixels: any cell, not used
+                x0 = np.minimum(np.maximum(np.floor(gx).astype(np.int64), 0), hix)
+                y0 = np.minimum(np.maximum(np.floor(gy).astype(np.int64), 0), hiy)
+            fx, fy = gx - x0, gy - y0
+            gx, gy = 1 - fx, 1 - fy
+            k = base + y0 * nx + x0  # flat index of the cell's top-left grid point
+            k1, k2, k3 = k + 1, k + nx, k + nx + 1
+            for col, table in ((u, table_u), (v, table_v)):
+                top = table[k] * gx + table[k1] * fx
+                bottom = table[k2] * gx + table[k3] * fx
+                col[use] = (top * gy + bottom * fy)[use]  # col is a view into out
             far = has[camera] & ~use  # outside the grid: OpenCV
             if far.any():
                 for cam_i in np.unique(camera[far]):

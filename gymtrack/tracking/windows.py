@@ -41,21 +41,25 @@ def fill_missing(box: np.ndarray, observed: np.ndarray, max_extrapolate: int) ->
     t = np.arange(W)
     prev = np.maximum.accumulate(np.where(observed, t, -1), axis=1)  # last observed index <= t
     nxt = np.minimum.accumulate(np.where(observed, t, W)[:, ::-1], axis=1)[:, ::-1]  # first observed >= t
-    inside = (prev >= 0) & (nxt < W)
-    before = (prev < 0) & (nxt - t <= max_extrapolate)
-    after = (nxt >= W) & (t - prev <= max_extrapolate)
-    valid = inside | before | after
-    k = np.arange(K)[:, None]
-    lo = np.where(prev >= 0, prev, nxt)  # 'before' frames hold the first box
-    hi = np.where(nxt < W, nxt, prev)  # 'after' frames hold the last box
-    lo = np.clip(lo, 0, W - 1)
-    hi = np.clip(hi, 0, W - 1)
-    span = hi - lo
-    with np.errstate(divide="ignore", invalid="ignore"):
-        a = np.where(span > 0, (t - lo) / np.where(span > 0, span, 1), 0.0)
-    a = np.where(inside, a, 0.0)[..., None]
-    filled = box[k, lo] * (1.0 - a) + box[k, hi] * a
-    filled[~valid] = np.nan
+    # observed frames keep their box; only the missing ones (a minority) are computed, as flat indices
+    filled = box.copy()
+    valid = observed.copy()
+    miss = np.flatnonzero(~observed)
+    if len(miss):
+        p, n = prev.ravel()[miss], nxt.ravel()[miss]
+        tm = miss % W
+        hasp, hasn = p >= 0, n < W
+        inside = hasp & hasn
+        ok = inside | (~hasp & (n - tm <= max_extrapolate)) | (~hasn & (tm - p <= max_extrapolate))
+        lo = np.where(hasp, p, n)  # 'before' frames hold the first box
+        hi = np.where(hasn, n, p)  # 'after' frames hold the last box
+        a = np.where(inside, (tm - lo) / np.maximum(hi - lo, 1), 0.0)[:, None]  # inside: hi - lo >= 2
+        flat = box.reshape(K * W, 4)
+        row = miss - tm
+        vals = flat[row + lo] * (1.0 - a) + flat[row + hi] * a
+        vals[~ok] = np.nan
+        filled.reshape(K * W, 4)[miss] = vals
+        valid.ravel()[miss] = ok
     return filled, valid
 
 
@@ -84,29 +88,43 @@ def build_window(
     Returns the window's segments (sorted by camera, then 2D track id) and the number of segments dropped
     for having too few boxes.
     """
-    inwin = (frame >= start) & (frame < start + width)
-    f, c, tid, b, d = frame[inwin], camera[inwin], track2d[inwin], box[inwin], det[inwin]
-    uniq, first, inv, counts = np.unique(tid, return_index=True, return_inverse=True, return_counts=True)
+    inwin = np.flatnonzero((frame >= start) & (frame < start + width))
+    c, tid = camera[inwin], track2d[inwin]
+    # group the boxes by 2D track without sorting them: ids are small integers, so counts and
+    # the segment of every box are table lookups over the id range (np.unique sorts, and its
+    # extra outputs cost several passes more)
+    lo = int(tid.min()) if len(tid) else 0
+    rel = tid - lo
+    span = int(rel.max()) + 1 if len(rel) else 0
+    ids = None
+    if span > 64 * len(rel) + 4096:  # ids too spread out for lookup tables: compact them first
+        ids, rel = np.unique(tid, return_inverse=True)
+        span = len(ids)
+    counts = np.bincount(rel, minlength=span)
+    cam_of = np.zeros(span, np.int64)
+    cam_of[rel] = c
     keep = counts >= min_boxes
-    dropped = int(np.count_nonzero(~keep))
-    K = int(keep.sum())
-    # segments ordered by (camera, 2D track id): each camera's segments are contiguous
+    present = np.flatnonzero(counts)
     kept = np.flatnonzero(keep)
-    kept = kept[np.argsort(c[first[kept]], kind="stable")]
-    remap = np.full(len(uniq), -1)
+    dropped = len(present) - len(kept)
+    kept = kept[np.argsort(cam_of[kept], kind="stable")]  # segments ordered by (camera, 2D track id)
+    K = len(kept)
+    remap = np.full(span, -1, np.int64)
     remap[kept] = np.arange(K)
-    rows = keep[inv]
-    k = remap[inv[rows]]
-    t = f[rows] - start
+    k = remap[rel]
+    use = k >= 0
+    k, rows = k[use], inwin[use]
+    t = frame[rows] - start
     boxes = np.full((K, width, 4), np.nan)
     observed = np.zeros((K, width), bool)
     dets = np.full((K, width), -1, np.int64)
-    boxes[k, t] = b[rows]
-    observed[k, t] = True
-    dets[k, t] = d[rows]
+    kt = k * width + t  # flat (segment, frame) cells: faster than 2D fancy indexing
+    boxes.reshape(-1, 4)[kt] = box[rows]
+    observed.ravel()[kt] = True
+    dets.ravel()[kt] = det[rows]
     filled, valid = fill_missing(boxes, observed, max_extrapolate)
     segs = WindowTracklets(
-        start=int(start), camera=c[first[kept]].astype(np.int64), track2d=uniq[kept].astype(np.int64),
+        start=int(start), camera=cam_of[kept], track2d=(kept + lo) if ids is None else ids[kept].astype(np.int64),
         box=filled, observed=observed, valid=valid, det=dets,
     )
     return segs, dropped
