@@ -20,26 +20,11 @@ import numpy as np
 import pytest
 
 from gymtrack.geometry import Camera, Rig
+from gymtrack.geometry.camera import look_at  # noqa: F401  (re-exported: tests import it from conftest)
 
 SIZE = (1920, 1080)
 #: the region the random cameras look at: [xmin, ymin, zmin, xmax, ymax, zmax], metres
 REGION = np.array([-4.0, -3.0, 0.0, 4.0, 3.0, 2.5])
-
-
-def look_at(centre: np.ndarray, target: np.ndarray, roll: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """(R, t) of a camera at ``centre`` (3,) looking at ``target`` (3,), world z up.
-
-    Camera axes: x right, y down, z forward; ``roll`` (radians) turns the camera about its axis.
-    """
-    z = np.asarray(target, float) - np.asarray(centre, float)
-    z /= np.linalg.norm(z)
-    x = np.cross(z, [0.0, 0.0, 1.0])
-    x /= np.linalg.norm(x)
-    y = np.cross(z, x)
-    R = np.stack([x, y, z])
-    c, s = np.cos(roll), np.sin(roll)
-    R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]) @ R
-    return R, -R @ np.asarray(centre, float)
 
 
 def radial_is_monotonic(dist: np.ndarray, r_max: float, min_slope: float = 0.3) -> bool:

@@ -12,20 +12,9 @@ import numpy as np
 
 from gymtrack.detections import Detections
 from gymtrack.formats.scene import scene_from_dict
-from gymtrack.geometry.camera import Camera, Rig
+from gymtrack.geometry.camera import Camera, Rig, look_at
 
 SIZE = (1920, 1080)
-
-
-def look_at(centre, target):
-    """(R, t) of a camera at ``centre`` looking at ``target``, world z up, no roll."""
-    z = np.asarray(target, float) - np.asarray(centre, float)
-    z /= np.linalg.norm(z)
-    x = np.cross(z, [0.0, 0.0, 1.0])
-    x /= np.linalg.norm(x)
-    y = np.cross(z, x)
-    R = np.stack([x, y, z])
-    return R, -R @ np.asarray(centre, float)
 
 
 def ring_rig(azimuths_deg, radius=12.0, height=3.0, f=1400.0, target=(0.0, 0.0, 1.2), dist=None) -> Rig:

@@ -213,6 +213,23 @@ class Camera:
         return f"Camera({self.name!r}, size={self.size}, f=({self.K[0, 0]:.1f}, {self.K[1, 1]:.1f}), centre=({c[0]:.2f}, {c[1]:.2f}, {c[2]:.2f}))"
 
 
+def look_at(centre: np.ndarray, target: np.ndarray, roll: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Extrinsics of a camera at ``centre`` (3,) looking at ``target`` (3,), world z up.
+
+    Camera axes x right, y down, z forward (the image's top stays up); ``roll`` (radians) turns
+    the camera about its optical axis. Returns ``(R (3, 3), t (3,))`` with ``X_cam = R X + t``.
+    """
+    centre = np.asarray(centre, dtype=np.float64)
+    z = np.asarray(target, dtype=np.float64) - centre
+    z /= np.linalg.norm(z)
+    x = np.cross(z, [0.0, 0.0, 1.0])
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    c, s = np.cos(roll), np.sin(roll)
+    R = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]]) @ np.stack([x, y, z])
+    return R, -R @ centre
+
+
 def _distort_normalised(x: np.ndarray, y: np.ndarray, dist: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """OpenCV's radial-tangential (and rational, with 8 coefficients) model on normalised coords."""
     k1, k2, p1, p2, k3 = dist[:5]

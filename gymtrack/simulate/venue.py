@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..apparatus import Apparatus
-from ..geometry.camera import Camera, Rig
+from ..geometry.camera import Camera, Rig, look_at
 from ..geometry.views import line_of_sight_angle
 
 IMAGE_SIZE = (1920, 1080)
@@ -54,19 +54,6 @@ def plane_axes(app: Apparatus) -> tuple[np.ndarray, np.ndarray]:
     if along @ np.array([1.0, 1.0, 0.0]) < 0:
         along = -along
     return n, along
-
-
-def look_at(centre: np.ndarray, target: np.ndarray, roll: float = 0.0) -> np.ndarray:
-    """(3, 3) world-to-camera rotation of a camera at ``centre`` looking at ``target`` (x right,
-    y down, z forward), rolled by ``roll`` radians about its axis."""
-    z = target - centre
-    z = z / np.linalg.norm(z)
-    x = np.cross(z, [0.0, 0.0, 1.0])
-    x /= np.linalg.norm(x)
-    y = np.cross(z, x)
-    R = np.stack([x, y, z])
-    c, s = np.cos(roll), np.sin(roll)
-    return np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]]) @ R
 
 
 def _required_hfov(R: np.ndarray, C: np.ndarray, pts: np.ndarray, margin: float = 0.9) -> float:
@@ -148,7 +135,7 @@ def make_rig(app: Apparatus, rng: np.random.Generator, cover: np.ndarray, aim: n
         roll = np.radians(rng.uniform(-1.0, 1.0))
         # Move back along the horizontal line of sight until the volume fits in 70 degrees.
         for _ in range(20):
-            R = look_at(C, target, roll)
+            R = look_at(C, target, roll)[0]
             need = _required_hfov(R, C, cover)
             far = np.linalg.norm(C - app_c) > DISTANCE_RANGE[1] - 0.8
             if need <= HFOV_RANGE_DEG[1] - 1.0 or far:

@@ -43,6 +43,25 @@ def _select_rows(obj, index):
     return type(obj)(**{f.name: getattr(obj, f.name)[index] for f in fields(obj)})
 
 
+class _PointRows:
+    """Row operations shared by the per-point types (:class:`Tracks3D`, :class:`Target`)."""
+
+    @classmethod
+    def concat(cls, parts: Sequence[Any]):
+        return _concat_rows(cls, parts)
+
+    def select(self, index):
+        return _select_rows(self, index)
+
+    def __len__(self) -> int:
+        return len(self.frame)
+
+    @property
+    def source_name(self) -> np.ndarray:
+        """(N,) source names."""
+        return np.asarray(SOURCE_NAMES, dtype=object)[self.source]
+
+
 @dataclass(frozen=True, eq=False)
 class WindowTracklets:
     """The 2D tracklet segments of one window (paper III-A), as dense arrays.
@@ -151,7 +170,7 @@ class WindowTracklets3D:
 
 
 @dataclass(frozen=True, eq=False)
-class Tracks3D:
+class Tracks3D(_PointRows):
     """Final 3D track points, one row per (frame, track), sorted by (frame, track_id).
 
     Attributes
@@ -177,27 +196,12 @@ class Tracks3D:
         return cls(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0), np.zeros(0),
                    np.zeros(0, np.int8), np.zeros(0, np.int8))
 
-    @classmethod
-    def concat(cls, parts: Sequence["Tracks3D"]) -> "Tracks3D":
-        return _concat_rows(cls, parts)
-
-    def select(self, index) -> "Tracks3D":
-        return _select_rows(self, index)
-
-    def __len__(self) -> int:
-        return len(self.frame)
-
-    @property
-    def source_name(self) -> np.ndarray:
-        """(N,) source names."""
-        return np.asarray(SOURCE_NAMES, dtype=object)[self.source]
-
     def __repr__(self) -> str:
         return f"Tracks3D({len(self)} points, {len(np.unique(self.track_id))} tracks)"
 
 
 @dataclass(frozen=True, eq=False)
-class Target:
+class Target(_PointRows):
     """The target gymnast's 3D trajectory (gaps filled, smoothed), one row per frame.
 
     Attributes
@@ -216,20 +220,6 @@ class Target:
     @classmethod
     def empty(cls) -> "Target":
         return cls(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0, np.int8))
-
-    @classmethod
-    def concat(cls, parts: Sequence["Target"]) -> "Target":
-        return _concat_rows(cls, parts)
-
-    def select(self, index) -> "Target":
-        return _select_rows(self, index)
-
-    def __len__(self) -> int:
-        return len(self.frame)
-
-    @property
-    def source_name(self) -> np.ndarray:
-        return np.asarray(SOURCE_NAMES, dtype=object)[self.source]
 
 
 @dataclass(frozen=True, eq=False)
