@@ -38,6 +38,7 @@ import yaml
 
 from ..errors import CalibrationError
 from ..geometry.camera import Camera, Rig
+from .textfile import read_text
 
 #: Length units accepted by ``units:`` fields and ``units=`` arguments, as metres per unit.
 UNITS: dict[str, float] = {"m": 1.0, "cm": 0.01, "mm": 0.001}
@@ -181,15 +182,8 @@ def _short(value: Any, n: int = 60) -> str:
     return s if len(s) <= n else s[: n - 3] + "..."
 
 
-def _read_text(path: Path, error=CalibrationError) -> str:
-    try:
-        return path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise error("file not found", source=path) from None
-    except IsADirectoryError:
-        raise error("is a folder, expected a file", source=path) from None
-    except UnicodeDecodeError:
-        raise error("not UTF-8 text", source=path) from None
+def _read_text(path: Path) -> str:
+    return read_text(path, CalibrationError)
 
 
 def _check_keys(d: Mapping, allowed: set[str], source, field: str) -> None:

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..detections import Detections, tlwh_to_xywh, xywh_to_tlwh
 from ..errors import DetectionFormatError
+from .textfile import read_text
 
 MIN_COLUMNS = 6
 MAX_COLUMNS = 10
@@ -96,14 +97,7 @@ def parse_mot_table(path: str | Path, text: str | None = None, min_columns: int 
     """
     path = Path(path)
     if text is None:
-        try:
-            text = path.read_text(encoding="utf-8")
-        except FileNotFoundError:
-            raise DetectionFormatError("file not found", source=path) from None
-        except IsADirectoryError:
-            raise DetectionFormatError("is a folder, expected a text file", source=path) from None
-        except UnicodeDecodeError:
-            raise DetectionFormatError("not UTF-8 text", source=path) from None
+        text = read_text(path, DetectionFormatError)
     lines, lineno, blank = _split_lines(path, text)
     report = ReadReport(path=path, skipped={"blank line": blank} if blank else {})
     if not lines:

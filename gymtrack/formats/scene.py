@@ -17,6 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from ..apparatus import APPARATUS_NAMES, get_apparatus
 from ..errors import SceneError
+from .textfile import read_text
 
 Vec3 = tuple[float, float, float]
 
@@ -180,10 +181,9 @@ def scene_from_dict(data: Any, source: str | Path = "scene.yaml") -> Scene:
 def load_scene(path: str | Path) -> Scene:
     """Read and validate a ``scene.yaml``."""
     path = Path(path)
+    text = read_text(path, SceneError)
     try:
-        data = yaml.safe_load(path.read_text())
-    except FileNotFoundError:
-        raise SceneError("file not found", source=path) from None
+        data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
         line = getattr(getattr(exc, "problem_mark", None), "line", None)
         raise SceneError(f"not valid YAML: {getattr(exc, 'problem', exc)}", source=path, line=None if line is None else line + 1) from None
