@@ -38,7 +38,7 @@ from ..geometry.camera import Rig
 from ..geometry.epipolar import epipolar_distance, fundamental_matrices
 from ..geometry.triangulation import triangulate
 from ..tracking.clustering import complete_linkage
-from ..tracking.target import TargetSelector, TargetSmoother, buffered_boxes, identify_indicator
+from ..tracking.target import TargetSelector, TargetSmoother, identify_indicator, point_columns, target_and_boxes
 from ..tracking.types import TRIANGULATION, Target, Tracks3D, TrackResult
 
 __all__ = ["undistort_boxes", "associate_frame", "associate", "link_frames", "select_target", "track_mvpt"]
@@ -190,17 +190,8 @@ def select_target(rig: Rig, scene: Scene, tracks: Tracks3D, boxes: Detections, m
     emitted += smoother.close()
     if not emitted:
         return Target.empty(), Detections.empty(rig.names), selector.switches
-    frame = np.array([e[0] for e in emitted], np.int64)
-    tid = np.array([e[1] for e in emitted], np.int64)
-    xyz = np.stack([e[2] for e in emitted])
-    top = np.array([e[3] for e in emitted], np.float64)
-    bot = np.array([e[4] for e in emitted], np.float64)
-    src = np.array([e[5] for e in emitted], np.int8)
-    ell = np.stack([e[6] for e in emitted])
-    box, ok = buffered_boxes(rig, xyz, top, bot, ell, p.box_scale, {})
-    n, c = np.nonzero(ok)
-    tb = Detections.from_arrays(frame[n], c, box[n, c], rig.names, track_id=tid[n])
-    return Target(frame, tid, xyz, src), tb, selector.switches
+    target, boxes_buf = target_and_boxes(rig, point_columns(emitted), p.box_scale, {})
+    return target, boxes_buf, selector.switches
 
 
 def track_mvpt(

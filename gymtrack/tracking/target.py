@@ -33,7 +33,8 @@ from scipy.signal import savgol_coeffs
 
 from ..formats.scene import in_box
 from ..geometry.camera import Rig, _distort_normalised
-from .types import INTERPOLATED
+from ..detections import Detections
+from .types import INTERPOLATED, Target
 
 SMOOTH_HALF_WINDOW = 2  # 5-frame window: at 30 fps, ~0.17 s, keeps a twist's fast turn-around
 SMOOTH_ORDER = 2
@@ -327,6 +328,20 @@ def _tuples(rows: tuple | None) -> list[tuple]:
     fr, tid, xyz, top, bot, src, ell = rows
     return [(int(fr[k]), int(tid[k]), xyz[k], float(top[k]), float(bot[k]), int(src[k]), ell[k])
             for k in range(len(fr))]
+
+
+def point_columns(points: list[tuple]) -> tuple:
+    """List of point tuples (the smoother's tuple interface) -> columns (:data:`ROW_FIELDS`)."""
+    return _rows(*zip(*points))
+
+
+def target_and_boxes(rig: Rig, rows: tuple, box_scale: float, memory: dict) -> tuple[Target, Detections]:
+    """Smoothed target rows (columns, :data:`ROW_FIELDS`) -> the :class:`Target` and its Eq. 14
+    boxes in every view (:func:`buffered_boxes`; ``memory`` carries its last-box state)."""
+    frame, tid, xyz, top, bot, src, ell = rows
+    box, ok = buffered_boxes(rig, xyz, top, bot, ell, box_scale, memory)
+    n, c = np.nonzero(ok)
+    return Target(frame, tid, xyz, src), Detections.from_arrays(frame[n], c, box[n, c], rig.names, track_id=tid[n])
 
 
 _RIG_ARRAYS: dict[int, tuple] = {}

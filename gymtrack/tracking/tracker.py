@@ -56,7 +56,7 @@ from .linking import link, link_distances, merge_overlaps, relink_distances, tra
 from .plane_fallback import plane_stage
 from .reconstruct import cluster_members, opposite_clusters, outliers, triangulate_clusters
 from .single_view import IoUTracker
-from .target import TargetSelector, TargetSmoother, buffered_boxes, identify_indicator
+from .target import TargetSelector, TargetSmoother, identify_indicator, target_and_boxes
 from .types import Target, TrackerOutput, Tracks3D, TrackResult, WindowTracklets, WindowTracklets3D
 from .undistort import UndistortTables
 from .windows import build_window
@@ -537,10 +537,8 @@ class Tracker:
         frame, tid, xyz, top, bot, src, ell = emitted[0] if len(emitted) == 1 else (
             np.concatenate(c) for c in zip(*emitted))
         self.counts["target_frames"] += len(frame)
-        box, ok = buffered_boxes(self.rig, xyz, top, bot, ell, self.params.box_scale, self._box_memory)
-        n, c = np.nonzero(ok)
-        tb = Detections.from_arrays(frame[n], c, box[n, c], self.names, track_id=tid[n])
-        return Target(frame, tid, xyz, src), tb
+        return target_and_boxes(self.rig, (frame, tid, xyz, top, bot, src, ell), self.params.box_scale,
+                                self._box_memory)
 
     def _collect(self) -> TrackerOutput:
         out = TrackerOutput.concat(self._out, self.names) if len(self._out) != 1 else self._out[0]
