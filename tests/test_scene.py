@@ -88,6 +88,9 @@ def test_round_trip(tmp_path):
         ({"apparatus": "vault", "params": {"windw": 10}}, "params.windw"),
         ({"apparatus": "vault", "planes": [{"point": [0, 0, 0], "normal": [0, 0, 0]}]}, "planes.0.normal"),
         ({"apparatus": "vault", "fps": -30}, "fps"),
+        ({"apparatus": "vault", "focus": [0, float("nan"), 1.5]}, "focus"),
+        ({"apparatus": "vault", "focus": [0, 1]}, "focus.2"),
+        ({"apparatus": "vault", "params": {"relink_frames": -1}}, "params.relink_frames"),
         ({"apparatus": "vault", "params": {"window": 10, "min_tracklet_boxes": 11}}, "params"),
     ],
 )

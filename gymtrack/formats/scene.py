@@ -125,6 +125,13 @@ class Scene(_Strict):
             merged["target"] = {"h_top": app.h_top, "h_bot": app.h_bot, **data["target"]}
         return merged
 
+    @field_validator("focus")
+    @classmethod
+    def _finite_focus(cls, v):
+        if v is not None and not np.all(np.isfinite(v)):
+            raise ValueError("must be finite numbers")
+        return v
+
     @field_validator("performance_space")
     @classmethod
     def _box(cls, v):
