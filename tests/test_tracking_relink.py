@@ -105,7 +105,8 @@ def test_plane_candidates_of_different_people_are_not_fused():
     assert dz < scene.params.cluster_plane  # Eq. 8 alone would fuse their candidates
     res = track_detections(rig, scene, as_raw(det), mode="cascade")
     assert len(res.tracks) == 0, "a phantom was fused on the plane"
-    assert res.summary["plane_tracklets"] == 0
+    # what the plane stage made are lone candidates (new 2D tracks), none continued a track
+    assert res.summary["plane_tracklets"] == res.summary["plane_single_view_unlinked"]
 
 
 def test_scene_focus_defaults_to_the_performance_space_centre_and_presets_use_the_apparatus():
@@ -137,4 +138,25 @@ def test_a_view_left_alone_continues_the_track_on_the_plane():
     truth = traj[0, res.tracks.frame[alone]]
     assert np.abs(res.tracks.xyz[alone, 0]).max() < 1e-6  # on the plane ...
     assert np.linalg.norm(res.tracks.xyz[alone] - truth, axis=1).max() < 0.15  # ... where the person is
+    assert res.summary["plane_single_view"] > 0
+
+
+def test_a_broken_2d_track_continues_the_3d_track_while_its_view_is_alone():
+    """As above, but while cam1 has lost the person, cam0's 2D track also breaks (3 frames
+    without a box, longer than max_age): its new 2D track belongs to no 3D track yet. Being new,
+    its lone plane candidates may continue (link or re-link) the 3D track, so the person keeps one id;
+    with only members of earlier 3D tracks allowed to stand alone (the previous rule) the track
+    would be lost until cam1 sees the person again."""
+    rig = ring_rig([0, 180])
+    traj = walk_with_gap(slice(0, 0))
+    det, pid = make_detections(rig, traj, visible=np.array([[True, True]]), noise=0.5, seed=4)
+    lost = ((det.camera == 1) & (det.frame >= 20) & (det.frame < 50)) | (
+        (det.camera == 0) & (det.frame >= 30) & (det.frame < 33))
+    det = det.select(~lost)
+    res = track_detections(rig, simple_scene(), as_raw(det), mode="cascade")
+    assert len(np.unique(res.tracks.track_id)) == 1
+    alone = (res.tracks.frame >= 36) & (res.tracks.frame < 48)  # only cam0's new 2D track sees them
+    assert alone.sum() == 12 and np.all(res.tracks.n_views[alone] == 1)
+    truth = traj[0, res.tracks.frame[alone]]
+    assert np.linalg.norm(res.tracks.xyz[alone] - truth, axis=1).max() < 0.15
     assert res.summary["plane_single_view"] > 0

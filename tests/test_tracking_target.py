@@ -6,13 +6,19 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from types import SimpleNamespace
+
+import cv2
 import numpy as np
 import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
 from test_tracking_synth import ring_rig  # noqa: E402
 
-from gymtrack.tracking.target import TargetSelector, TargetSmoother, buffered_boxes, identify_indicator, project_all  # noqa: E402
+from gymtrack.detections import Detections  # noqa: E402
+from gymtrack.tracking.target import (  # noqa: E402
+    BODY_HALF_DEPTH, TargetBackfill, TargetSelector, TargetSmoother, backfill, body_box_lengths, body_half_lengths,
+    buffered_boxes, identify_indicator, project_all, track_box_sizes)
 from gymtrack.tracking.types import INTERPOLATED, TRIANGULATION  # noqa: E402
 
 
@@ -66,8 +72,8 @@ def test_identify_indicator():
     assert inperf.tolist() == [True, True, True, False]
 
 
-def _point(f, xyz, tid=1, ell=None):
-    return (f, tid, np.asarray(xyz, float), 2.2, 0.8, TRIANGULATION, np.full(2, np.nan) if ell is None else ell)
+def _point(f, xyz, tid=1):
+    return (f, tid, np.asarray(xyz, float), 2.2, 0.8, TRIANGULATION, np.full((2, 2), np.nan))
 
 
 def test_smoother_fills_short_gaps_keeps_long_ones_and_preserves_lines():
@@ -110,23 +116,114 @@ def test_smoother_latency_is_half_window():
     assert emitted == [0, 0, 1, 1, 1, 1, 1, 1, 1, 1]
 
 
-def test_buffered_boxes_eq14():
+def test_buffered_boxes_eq14_with_detections_and_the_body_box_without():
     rig = ring_rig([0, 90], dist=(-0.05, 0.01, 0, 0, 0))
     X = np.array([[0.2, 0.1, 1.2], [0.3, 0.1, 1.2], [0.4, 0.1, 1.2]])
-    ell = np.array([[200.0, np.nan], [np.nan, np.nan], [220.0, np.nan]])
+    wh = np.full((3, 2, 2), np.nan)
+    wh[0, 0] = [120.0, 200.0]
+    wh[2, 0] = [220.0, 90.0]
     memory = {}
-    box, ok = buffered_boxes(rig, X, np.full(3, 2.0), np.full(3, 0.4), ell, 1.3, memory)
+    normal = np.array([1.0, 0.0, 0.0])  # the plane x = 0
+    box, ok = buffered_boxes(rig, X, np.full(3, 2.0), np.full(3, 0.4), wh, 1.3, memory, normal)
     assert ok.all()
     for c, cam in enumerate(rig):
         np.testing.assert_allclose(box[:, c, :2], cam.project(X))  # centred on the projected 3D centre
-    np.testing.assert_allclose(box[[0, 2], 0, 2], [260.0, 286.0])  # alpha * l
+    np.testing.assert_allclose(box[[0, 2], 0, 2], [260.0, 286.0])  # alpha * max(w, h) of the detection
     np.testing.assert_array_equal(box[..., 2], box[..., 3])  # square
-    d = rig[0].depth(X)
-    assert box[1, 0, 2] == pytest.approx(260.0 * d[0] / d[1])  # last size, scaled by depth
-    # a view that never saw the target: the projected top-bottom extent
-    extent = np.linalg.norm(rig[1].project(np.array([[0.2, 0.1, 2.0]])) - rig[1].project(np.array([[0.2, 0.1, 0.4]])))
-    assert box[0, 1, 2] == pytest.approx(1.3 * extent)
-    assert memory["ell"][0] == 220.0
+    # without a detection: alpha * max(w, h) of the projected body box, measured by cam0's widths
+    a = body_half_lengths(rig, wh, np.stack([cam.depth(X) for cam in rig], axis=1),
+                          np.tile([0.0, 1.0, 0.0], (3, 1)), np.tile([1.0, 0.0, 0.0], (3, 1)), BODY_HALF_DEPTH)
+    assert np.isnan(a[1]) and np.all(np.isfinite(a[[0, 2]]))
+    a[1] = a[0]  # carried forward
+    for n in range(3):
+        corners = np.array([[X[n, 0] + sb * BODY_HALF_DEPTH, X[n, 1] + sa * a[n], z]
+                            for sa in (-1, 1) for sb in (-1, 1) for z in (0.4, 2.0)])
+        for c in range(2):
+            if np.isfinite(wh[n, c, 0]):
+                continue
+            uv = cv2.projectPoints(corners, cv2.Rodrigues(rig[c].R)[0], rig[c].t, rig[c].K, rig[c].dist)[0][:, 0]
+            assert box[n, c, 2] == pytest.approx(1.3 * (uv.max(axis=0) - uv.min(axis=0)).max(), rel=1e-6)
+    assert memory["half_length"] == pytest.approx(a[2])
+
+
+def test_body_half_length_recovers_a_body_box_seen_face_on():
+    """A body box (half-length 0.6 m along the plane y-z, half-depth 0.25 m across) seen by a view
+    facing the plane: its projected width, fed back, gives the half-length again (to the
+    perspective error of a 0.5 m deep box at 10 m)."""
+    rig = ring_rig([0, 90], radius=10.0)
+    X = np.array([[0.0, 0.0, 1.2]])
+    along, across = np.array([[0.0, 1.0, 0.0]]), np.array([[1.0, 0.0, 0.0]])
+    length = body_box_lengths(rig, X, np.array([2.0]), np.array([0.4]), np.array([0.6]), along, across,
+                              np.array([BODY_HALF_DEPTH]))
+    corners = np.array([[sb * 0.25, sa * 0.6, z] for sa in (-1, 1) for sb in (-1, 1) for z in (0.4, 2.0)])
+    uv = rig[0].project(corners)
+    w, h = uv.max(axis=0) - uv.min(axis=0)
+    assert length[0, 0] == pytest.approx(max(w, h))
+    wh = np.array([[[w, h], [np.nan, np.nan]]])
+    depth = np.stack([cam.depth(X) for cam in rig], axis=1)
+    ca = abs(rig[0].R[0] @ along[0])
+    assert ca > 0.9  # the view does face the plane
+    a = body_half_lengths(rig, wh, depth, along, across, BODY_HALF_DEPTH)
+    assert a[0] == pytest.approx(0.6, rel=0.05)
+    # no plane (box as deep as long): a view facing the box's side does not see its depth either
+    assert body_half_lengths(rig, wh, depth, along, across, None)[0] == pytest.approx(a[0], rel=1e-3)
+
+
+def test_track_box_sizes_maps_boxes_to_their_track_points():
+    tracks = SimpleNamespace(frame=np.array([3, 3, 4]), track_id=np.array([1, 7, 7]))
+    boxes = Detections.from_arrays(np.array([3, 3, 4, 4, 5]), np.array([0, 1, 1, 0, 0]),
+                                   np.array([[0, 0, 10, 20], [0, 0, 11, 21], [0, 0, 12, 22], [0, 0, 13, 23],
+                                             [0, 0, 14, 24]], float), ("a", "b"), track_id=np.array([7, 1, 7, 2, 7]))
+    wh = track_box_sizes(tracks, boxes, 2)
+    expected = np.full((3, 2, 2), np.nan)
+    expected[1, 0] = [10, 20]  # frame 3, track 7, view a
+    expected[0, 1] = [11, 21]  # frame 3, track 1, view b
+    expected[2, 1] = [12, 22]  # frame 4, track 7, view b; (4, track 2) and (5, track 7) have no point
+    np.testing.assert_array_equal(wh, expected)
+
+
+def test_backfill_hand_worked():
+    # frames 0..9; track 4 identified at frame 6, track 9 was the target until frame 2
+    decision = np.array([9, 9, 9, -1, -1, -1, 4, 4, 4, -1])
+    index = np.array([0, 1, 2, 3, 4, 5, 6, 7, 8, 1, 2, 4, 5, 6, 8])
+    tid = np.array([9, 9, 9, 9, 9, 9, 9, 9, 9, 4, 4, 4, 4, 4, 4])
+    out = backfill(decision.copy(), index, tid, frames=30)
+    # frames 3..5 had no target: track 4 gets 4 and 5 (it has no point at 3); frames <= 2 stay 9's
+    np.testing.assert_array_equal(out, [9, 9, 9, -1, 4, 4, 4, 4, 4, -1])
+    np.testing.assert_array_equal(backfill(decision.copy(), index, tid, frames=1), [9, 9, 9, -1, -1, 4, 4, 4, 4, -1])
+    np.testing.assert_array_equal(backfill(decision.copy(), index, tid, frames=0), decision)
+    # changes before ``since`` were handled already: nothing happens
+    np.testing.assert_array_equal(backfill(decision.copy(), index, tid, frames=30, since=7), decision)
+
+
+def test_target_backfill_streaming_equals_offline():
+    rng = np.random.default_rng(5)
+    F = 200
+    decision = np.full(F, -1)
+    for a, b, t in ((20, 60, 3), (75, 120, 8), (121, 150, 3), (170, 200, 8)):
+        decision[a:b] = t
+    rows = [(f, t) for f in range(F) for t in (3, 8, 11) if rng.random() < 0.8]
+    frame = np.array([r[0] for r in rows])
+    tid = np.array([r[1] for r in rows])
+    offline = backfill(decision.copy(), frame, tid, 30)
+    buf = TargetBackfill(30)
+    got = []
+    cuts = np.sort(rng.choice(np.arange(1, F), 25, replace=False)).tolist() + [F]
+    a = 0
+    for b in cuts:  # uneven chunks of final frames, released 30 frames late
+        m = (frame >= a) & (frame < b)
+        n = int(m.sum())
+        buf.push(a, decision[a:b], (frame[m], tid[m], np.zeros((n, 3)), np.zeros(n), np.zeros(n), np.zeros(n),
+                                    np.full((n, 2, 2), np.nan)))
+        out = buf.pop(b - 1 - 30)
+        got += [] if out is None else list(zip(out[0].tolist(), out[1].tolist()))
+        a = b
+    out = buf.pop()
+    got += [] if out is None else list(zip(out[0].tolist(), out[1].tolist()))
+    expected = [(f, t) for f, t in zip(frame.tolist(), tid.tolist()) if offline[f] == t]
+    assert got == expected
+    assert len(buf) == 0
+    assert offline[45] == 3 and np.count_nonzero(offline[60:75] == 8) > 0  # track 8 took frames before 75
 
 
 def test_project_all_matches_camera_project():

@@ -16,8 +16,9 @@ What it is, per frame:
 3. frame-to-frame 3D linking: a linear assignment (``scipy``'s ``linear_sum_assignment``)
    between the tracks seen in the last ``max_age`` frames and the frame's points, gated at
    ``link_gate`` metres (0.6, the paper's cross-window gate); unmatched points start new ids;
-4. the tracker's own target stage: Eq. 13 identification (:class:`TargetSelector`), gap filling
-   and smoothing (:class:`TargetSmoother`) and the Eq. 14 expanded boxes (:func:`buffered_boxes`).
+4. the tracker's own target stage: Eq. 13 identification (:class:`TargetSelector`) with the
+   tracker's back-fill (:func:`backfill`), gap filling and smoothing (:class:`TargetSmoother`)
+   and the Eq. 14 expanded boxes (:func:`buffered_boxes`).
 
 What it is not: no keypoints (MvPT matches full-body keypoints), no appearance / Re-ID, no 2D
 tracklets or temporal windows (every frame is associated on its own), no plane fallback. It
@@ -38,7 +39,9 @@ from ..geometry.camera import Rig
 from ..geometry.epipolar import epipolar_distance, fundamental_matrices
 from ..geometry.triangulation import triangulate
 from ..tracking.clustering import complete_linkage
-from ..tracking.target import TargetSelector, TargetSmoother, identify_indicator, point_columns, target_and_boxes
+from ..geometry.plane import Plane
+from ..tracking.target import (TargetSelector, TargetSmoother, backfill, identify_indicator, target_and_boxes,
+                               track_box_sizes)
 from ..tracking.types import TRIANGULATION, Target, Tracks3D, TrackResult
 
 __all__ = ["undistort_boxes", "associate_frame", "associate", "link_frames", "select_target", "track_mvpt"]
@@ -139,7 +142,7 @@ def link_frames(frame: np.ndarray, xyz: np.ndarray, gate: float = 0.6, max_age: 
 
 
 def select_target(rig: Rig, scene: Scene, tracks: Tracks3D, boxes: Detections, max_age: int = 2) -> tuple[Target, Detections, int]:
-    """The tracker's target stage (Eq. 13, gap filling, smoothing, Eq. 14) on finished tracks.
+    """The tracker's target stage (Eq. 13, the back-fill, gap filling, smoothing, Eq. 14) on finished tracks.
 
     tracks: sorted by (frame, track_id); boxes: the tracks' raw boxes (``track_id`` = 3D id).
     A track counts as ended ``max_age`` frames after its last point (as it would online).
@@ -147,50 +150,41 @@ def select_target(rig: Rig, scene: Scene, tracks: Tracks3D, boxes: Detections, m
     """
     p = scene.params
     perf = np.asarray(scene.performance_space, dtype=np.float64)
-    ind, inperf = identify_indicator(tracks.xyz, tracks.top_z, tracks.bottom_z, perf, scene.target.h_top, scene.target.h_bot)
-    selector = TargetSelector(p.identify_frames)
-    smoother = TargetSmoother(p.max_gap)
-    C = len(rig)
     if len(tracks) == 0:
         return Target.empty(), Detections.empty(rig.names), 0
+    ind, inperf = identify_indicator(tracks.xyz, tracks.top_z, tracks.bottom_z, perf, scene.target.h_top, scene.target.h_bot)
+    selector = TargetSelector(p.identify_frames)
     ids, last_idx = np.unique(tracks.track_id[::-1], return_index=True)
     last = tracks.frame[::-1][last_idx]  # last frame of each track
     end_order = np.argsort(last + max_age, kind="stable")
     ends, end_ids = (last + max_age)[end_order], ids[end_order]
     f0, f1 = int(tracks.frame.min()), int(tracks.frame.max())
     bounds = np.searchsorted(tracks.frame, np.arange(f0, f1 + 2))
-    # the target's detections: max(w, h) per (frame, view), looked up per frame
-    bkey = boxes.frame.astype(np.int64)
-    border = np.lexsort((boxes.track_id, bkey))
-    bfr, btid, bcam, bell = bkey[border], boxes.track_id[border], boxes.camera[border].astype(np.int64), boxes.box[border, 2:].max(axis=1)
-    bb = np.searchsorted(bfr, np.arange(f0, f1 + 2))
+    decision = np.full(f1 - f0 + 1, -1, np.int64)
     ended: dict[int, int] = {}
     k = 0
-    emitted: list[tuple] = []
-    for f in range(f0, f1 + 1):
+    for f in range(f0, f1 + 1):  # Eq. 13 online, frame by frame
         while k < len(ends) and ends[k] < f:
             ended[int(end_ids[k])] = int(ends[k] - max_age)
             k += 1
         i0, i1 = bounds[f - f0], bounds[f - f0 + 1]
-        tid = tracks.track_id[i0:i1]
-        tgt = selector.step(f, tid, ind[i0:i1], inperf[i0:i1], ended)
-        if tgt >= 0:
-            hit = np.flatnonzero(tid == tgt)
-            if hit.size:
-                j = i0 + int(hit[0])
-                ell = np.full(C, np.nan)
-                s0, s1 = bb[f - f0], bb[f - f0 + 1]
-                mine = btid[s0:s1] == tgt
-                ell[bcam[s0:s1][mine]] = bell[s0:s1][mine]
-                emitted += smoother.push((f, tgt, tracks.xyz[j], tracks.top_z[j], tracks.bottom_z[j], int(tracks.source[j]), ell))
-        emitted += smoother.advance(f)
+        decision[f - f0] = selector.step(f, tracks.track_id[i0:i1], ind[i0:i1], inperf[i0:i1], ended)
         horizon = f - p.identify_frames
         for t in [t for t, v in ended.items() if v < horizon and t != selector.target]:
             del ended[t]
-    emitted += smoother.close()
-    if not emitted:
+    # the same back-fill as the tracker's (offline: all frames held at once)
+    backfill(decision, tracks.frame - f0, tracks.track_id, p.backfill_frames)
+    mine = np.flatnonzero(tracks.track_id == decision[tracks.frame - f0])
+    if len(mine) == 0:
         return Target.empty(), Detections.empty(rig.names), selector.switches
-    target, boxes_buf = target_and_boxes(rig, point_columns(emitted), p.box_scale, {})
+    wh = track_box_sizes(tracks, boxes, len(rig))
+    smoother = TargetSmoother(p.max_gap)
+    rows = [smoother.push_rows(tracks.frame[mine], tracks.track_id[mine], tracks.xyz[mine], tracks.top_z[mine],
+                               tracks.bottom_z[mine], tracks.source[mine], wh[mine]), smoother.close_rows()]
+    rows = [r for r in rows if r is not None]
+    rows = rows[0] if len(rows) == 1 else tuple(np.concatenate(c) for c in zip(*rows))
+    planes = [Plane.from_spec(s) for s in scene.planes]
+    target, boxes_buf = target_and_boxes(rig, rows, p.box_scale, {}, planes)
     return target, boxes_buf, selector.switches
 
 

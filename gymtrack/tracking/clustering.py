@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import _compiled
 from .types import WindowTracklets
 
 
@@ -49,33 +50,11 @@ def complete_linkage(D: np.ndarray, threshold: float) -> np.ndarray:
     others: each round merges all such pairs below the threshold at once (Murtagh's
     reciprocal-nearest-neighbour scheme). The clusters are those of the one-merge-at-a-time
     loop (:func:`complete_linkage_sequential`, kept as the literal reference; ties aside) in a
-    handful of vectorised rounds instead of one round per merge.
+    handful of rounds instead of one round per merge. The rounds are compiled
+    (:func:`._compiled.complete_linkage`): a window's K is a few tens, where numpy's per-call
+    overhead would dominate.
     """
-    S = np.array(D, dtype=np.float64)
-    K = S.shape[0]
-    owner = np.arange(K)
-    if K >= 2:
-        np.fill_diagonal(S, np.nan)
-        idx = np.arange(K)
-        while True:
-            W = np.fmin(S, np.inf)  # unknown (NaN) is never the closest pair: fmin ignores NaN
-            nn = np.argmin(W, axis=1)
-            d = W[idx, nn]
-            I = np.flatnonzero((nn[nn] == idx) & (idx < nn) & (d < threshold))
-            if len(I) == 0:
-                if not d.min() < threshold:
-                    break
-                I = np.array([int(np.argmin(d))])  # exact ties without a reciprocal pair
-            J = nn[I]
-            S[I] = np.fmax(S[I], S[J])  # Algorithm 1's update, rows then columns
-            S[:, I] = np.fmax(S[:, I], S[:, J])
-            S[J] = np.nan
-            S[:, J] = np.nan
-            S[I, I] = np.nan
-            relabel = idx.copy()
-            relabel[J] = I
-            owner = relabel[owner]
-    return _number_by_first_member(owner)
+    return _compiled.complete_linkage(np.ascontiguousarray(D, dtype=np.float64), float(threshold))
 
 
 def _number_by_first_member(owner: np.ndarray) -> np.ndarray:
@@ -130,43 +109,14 @@ def tracklet_distances(segs: WindowTracklets, F: np.ndarray) -> np.ndarray:
     (K, K) distances: the mean over shared observed frames of Eq. 1 (dimensionless); NaN
     where two segments share no observed frame; inf for two segments of one camera.
 
-    Cost: the epipolar line of every centre in every view is computed once (one batched
-    product, (K, C, W) lines, :func:`gymtrack.geometry.epipolar.epipolar_lines`' convention);
-    the point-line distances of all pairs are then one batched product over the frames, every
-    centre against every line in every view, of which each centre's own view is kept.
+    Cost: the epipolar line of every observed centre in every other view is computed once
+    ((K, C, W) lines, :func:`gymtrack.geometry.epipolar.epipolar_lines`' convention), then each
+    pair of segments of different views sums its point-line distances over the shared frames;
+    both loops are compiled (:func:`._compiled.tracklet_distances`). The result equals
+    :func:`gymtrack.geometry.epipolar.epipolar_distance` averaged over the shared frames.
     """
-    K, W = segs.observed.shape
-    cam = segs.camera
-    if K == 0:
+    if len(segs) == 0:
         return np.zeros((0, 0))
-    C = F.shape[0]
-    obs = segs.observed
-    box = segs.box
-    # homogeneous centres, all-zero where not observed (their distances vanish), each divided by
-    # its box's |w + h| (Eq. 1's normalisation of the distance measured in that box's view)
-    xh = np.empty((K, W, 3))
-    xh[..., :2] = box[..., :2]
-    xh[..., 2] = 1.0
-    xh[~obs] = 0.0
-    scale = np.abs(box[..., 2] + box[..., 3])
-    scale[~obs] = 1.0
-    xh /= scale[..., None]
-    # lines[k, c, :, t]: epipolar line in view c of segment k's centre at frame t, unit normal
-    lines = (F[cam].reshape(K, 3 * C, 3) @ xh.transpose(0, 2, 1)).reshape(K, C, 3, W)
-    l0, l1 = lines[:, :, 0], lines[:, :, 1]
-    norm = np.sqrt(l0 * l0 + l1 * l1)  # (K, C, W)
-    norm[norm == 0] = 1.0
-    lines /= norm[:, :, None]
-    # every centre against every segment's line in every view (C times more products than
-    # needed, but in W matrix products instead of C x W), then each centre's own view picked:
-    # E[t, j, i] = distance in view cam[j] of segment j's centre from segment i's line
-    full = (xh.transpose(1, 0, 2) @ lines.transpose(3, 2, 1, 0).reshape(W, 3, C * K)).reshape(W, K, C, K)
-    E = full[:, np.arange(K), cam, :]  # (W, K, K)
-    S = np.abs(E, out=E).sum(axis=0)
-    obsf = obs.astype(np.float64)
-    n = obsf @ obsf.T  # shared observed frames
-    with np.errstate(invalid="ignore", divide="ignore"):
-        D = (S + S.T) / n  # Eq. 1 is the sum of the two one-way terms
-    D[n == 0] = np.nan
-    D[cam[:, None] == cam[None, :]] = np.inf
-    return D
+    return _compiled.tracklet_distances(np.ascontiguousarray(segs.camera, dtype=np.int64),
+                                        np.ascontiguousarray(segs.box, dtype=np.float64),
+                                        np.ascontiguousarray(segs.observed), np.ascontiguousarray(F, dtype=np.float64))

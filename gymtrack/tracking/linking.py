@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from . import _compiled
 from .types import Tracks3D
 
 
@@ -39,16 +40,9 @@ def link_distances(
     new_xyz: (Mn, W, 3), new_valid: (Mn, W): the new window's, which starts ``offset`` frames
     later (the step). Returns (Mp, Mn) metres; NaN where the pair shares no valid frame.
     """
-    Wo = prev_xyz.shape[1] - offset
-    a, av = prev_xyz[:, offset:], prev_valid[:, offset:]
-    b, bv = new_xyz[:, :Wo], new_valid[:, :Wo]
-    both = av[:, None] & bv[None]  # (Mp, Mn, Wo)
-    d = np.linalg.norm(a[:, None] - b[None], axis=-1)
-    n = both.sum(axis=-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        D = np.where(both, d, 0.0).sum(axis=-1) / n
-    D[n == 0] = np.nan
-    return D
+    c = np.ascontiguousarray
+    return _compiled.link_distances(c(prev_xyz, dtype=np.float64), c(prev_valid), c(new_xyz, dtype=np.float64),
+                                    c(new_valid), int(offset))  # pairs x frames: a compiled loop
 
 
 def link(D: np.ndarray, gate: float) -> tuple[np.ndarray, np.ndarray]:

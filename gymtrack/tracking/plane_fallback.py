@@ -26,6 +26,7 @@ import numpy as np
 
 from ..geometry.camera import Rig
 from ..geometry.plane import Plane
+from . import _compiled
 from .clustering import complete_linkage
 from .reconstruct import cluster_members, source_for
 from .types import PLANE, WindowTracklets, WindowTracklets3D
@@ -119,15 +120,11 @@ def candidate_distances(X: np.ndarray, observed: np.ndarray, camera: np.ndarray,
     Returns (P, K, K): mean distance (metres) over frames where both were observed and both
     intersections exist; NaN with no such frame; inf for two segments of one camera.
     """
-    ok = observed[None] & (np.all(np.isfinite(X), axis=-1) if exists is None else exists)  # (P, K, W)
-    shared = ok[:, :, None] & ok[:, None, :]  # (P, K, K, W)
-    diff = X[:, :, None] - X[:, None, :]
-    d = np.sqrt(np.einsum("pijtk,pijtk->pijt", diff, diff))
-    n = shared.sum(axis=-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        D = np.where(shared, d, 0.0).sum(axis=-1) / n  # 0 / 0: NaN where no frame is shared
-    D[:, camera[:, None] == camera[None, :]] = np.inf
-    return D
+    if exists is None:
+        exists = np.all(np.isfinite(X), axis=-1)
+    c = np.ascontiguousarray
+    return _compiled.candidate_distances(c(X, dtype=np.float64), c(observed), c(camera, dtype=np.int64),
+                                         c(exists))  # pairs x frames x planes: a compiled loop
 
 
 def best_plane_distance(Dp: np.ndarray) -> np.ndarray:

@@ -1,9 +1,9 @@
 """3D tracklets by triangulation, and the outlier test (paper Section III-B, Eq. 3-4).
 
 A cluster of 2D segments (at most one per view) is triangulated frame by frame from the views
-whose segment is valid at that frame (Eq. 3, :func:`gymtrack.geometry.triangulation.triangulate_views`,
-one batched call for the centres, box tops and box bottoms of every cluster and frame of a
-window). The box top-centre and bottom-centre points give the heights of the body's top and
+whose segment is valid at that frame (Eq. 3, the arithmetic of :func:`gymtrack.geometry.triangulation.triangulate_views`
+compiled as :func:`._compiled.triangulate_views`, one call for the centres, box tops and box
+bottoms of every cluster and frame of a window). The box top-centre and bottom-centre points give the heights of the body's top and
 bottom (used to identify the target, Eq. 13).
 
 The cascade (Section III-C) needs to know which two-view clusters are "opposite": their lines
@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.triangulation import triangulate_views
+from . import _compiled
 from .types import INTERPOLATED, PLANE, TRIANGULATION, WindowTracklets, WindowTracklets3D
 
 
@@ -62,21 +62,14 @@ def triangulate_clusters(segs: WindowTracklets, members: np.ndarray, P: np.ndarr
     W = segs.width
     if M == 0:
         return WindowTracklets3D.empty(segs.start, W, C)
-    has = members >= 0
-    b = segs.box[np.where(has, members, 0)].transpose(3, 1, 0, 2)  # (4, C, M, W), NaN where not valid
-    x, y, half = np.where(has.T[:, :, None], b[0], np.nan), b[1], b[3] / 2  # a camera without a member: no point
-    # centre, top-centre and bottom-centre points, views-major: (C, 3 M W) rows of u and of v
-    u = np.empty((C, 3, M, W))
-    v = np.empty((C, 3, M, W))
-    u[:] = x[:, None]
-    v[:, 0] = y
-    np.subtract(y, half, out=v[:, 1])
-    np.add(y, half, out=v[:, 2])
-    X, _ = triangulate_views(P, u.reshape(C, -1), v.reshape(C, -1), iterations=GN_ITERATIONS)  # NaN = view absent
+    # pixels and observed-view counts gathered, then every point triangulated, in compiled loops
+    # (the same Eq. 3 arithmetic as triangulate_views, one point at a time)
+    u, v, n_views = _compiled.cluster_points(_contiguous(segs.box), np.ascontiguousarray(segs.observed),
+                                            np.ascontiguousarray(members, dtype=np.int64))
+    X, _ = _compiled.triangulate_views(_contiguous(P), u, v, np.isfinite(u), GN_ITERATIONS)  # NaN = view absent
     X = X.reshape(3, 3, M, W)  # (xyz, point, M, W)
     centre = np.ascontiguousarray(X[:, 0].transpose(1, 2, 0))  # (M, W, 3)
-    valid = np.isfinite(X[0, 0]) & np.isfinite(X[1, 0]) & np.isfinite(X[2, 0])
-    n_views = observed_views(segs, members)
+    valid = np.isfinite(centre).all(axis=2)
     source = np.where(n_views > 0, TRIANGULATION, INTERPOLATED).astype(np.int8)
     return WindowTracklets3D(
         segs.start, centre, X[2, 1], X[2, 2], valid, source, n_views, members, np.full(M, -1, np.int64)
@@ -131,28 +124,12 @@ def outliers(xyz: np.ndarray, valid: np.ndarray, space: np.ndarray, max_speed: f
     M, W = valid.shape
     if M == 0:
         return np.zeros(0, bool)
-    # coordinate-major (3, M W) views: comparing with the (3,) space would otherwise run inner
-    # loops of length 3; NaN (not valid) compares False, masked by ``valid``
-    space = np.asarray(space, dtype=np.float64)
-    flat = xyz.reshape(M * W, 3)
-    pts = flat.T
-    inside = ((pts >= space[:3, None]) & (pts <= space[3:, None])).all(axis=0).reshape(M, W)
-    bad = (valid & ~inside).any(axis=1) | ~valid.any(axis=1)
-    t = np.arange(W)
-    prev = np.maximum.accumulate(np.where(valid, t, -1), axis=1)  # last valid index <= t
-    # valid points with an earlier valid point in their tracklet: flat indices into the
-    # (M, W - 1) grid of frames 1..W-1 (2D np.nonzero is several times slower)
-    later = np.flatnonzero(valid[:, 1:] & (prev[:, :-1] >= 0))
-    if len(later):
-        row = later // (W - 1)
-        tt = later - row * (W - 1) + 1
-        p = prev[row, tt - 1]  # the last valid index before tt
-        base = row * W
-        d = flat[base + tt] - flat[base + p]
-        jump = np.linalg.norm(d, axis=1)
-        fast = jump > max_speed * (tt - p)
-        bad[row[fast]] = True
-    return bad
+    return _compiled.outliers(_contiguous(xyz), np.ascontiguousarray(valid), _contiguous(space), float(max_speed))
+
+
+def _contiguous(a: np.ndarray) -> np.ndarray:
+    """float64, C order: the layout the compiled kernels are built for."""
+    return np.ascontiguousarray(a, dtype=np.float64)
 
 
 def source_for(n_views: np.ndarray, code: int) -> np.ndarray:

@@ -7,10 +7,13 @@ at most ``max_age = 2`` frames without a box.
 
 Unlike the original greedy IoU tracker, each frame is solved as one global assignment
 (``scipy.optimize.linear_sum_assignment`` maximising the summed IoU of pairs above the
-threshold); when every track and box has at most one candidate the assignment is read off
-directly, which is the common case and keeps the per-frame cost at a few numpy operations.
-All cameras are tracked by one object: boxes are shifted far apart in x per camera, so boxes of
-different cameras never overlap and one IoU matrix serves every camera.
+threshold); a pair whose track and box have no other candidate is matched directly, and the
+solver only sees the tracks and boxes of conflicting components. The per-frame loops are
+compiled (:mod:`._compiled`): a frame costs two kernel calls, plus the solver on a small matrix
+when some track or box has two candidates. All cameras are tracked by one object (2D track ids
+unique over all cameras); only pairs of one camera are compared, and :func:`corners` shifts
+boxes far apart in x per camera so that :func:`iou_matrix`-style matrices over all cameras
+never see overlaps across cameras either.
 
 Boxes are matched in the pixels they come in (raw image): between consecutive frames lens
 distortion changes a box's shape too little to matter for IoU. The geometric stages use
@@ -21,6 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
+
+from . import _compiled
 
 
 def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -95,16 +100,22 @@ class IoUTracker:
         bridges missed detections but risks mix-ups).
 
     State (bounded by the number of people in view): per live track its last box (as corners
-    and area, shifted per camera), last frame and id.
+    and area, shifted per camera), camera, last frame and id.
+
+    Constructing one also compiles (or loads from numba's cache) all of the tracker's kernels,
+    once per process (:func:`._compiled.warm_up`): the :class:`~.tracker.Tracker` builds its
+    IoU tracker in its constructor, so compilation never counts as tracking time.
     """
 
     def __init__(self, iou_threshold: float = 0.1, max_age: int = 2):
         self.iou_threshold = float(iou_threshold)
         self.max_age = int(max_age)
         self.box = np.zeros((5, 0))
+        self.camera = np.zeros(0, np.int64)
         self.last = np.zeros(0, np.int64)
         self.track_id = np.zeros(0, np.int64)
         self.next_id = 0
+        _compiled.warm_up()
 
     def __len__(self) -> int:
         return len(self.track_id)
@@ -114,25 +125,23 @@ class IoUTracker:
 
         frame: frame number (increasing between calls); camera: (N,) camera index;
         box: (N, 4) centre-form boxes. Returns (N,) int64 2D track ids.
+
+        The per-frame loops (old tracks dropped, corners, IoU of the pairs of one camera, the
+        pairs without a rival, new tracks) are compiled (:func:`._compiled.iou_frame` and
+        :func:`._compiled.iou_commit`, the arithmetic of :func:`iou_corners`). The assignment
+        (:func:`assign`) falls apart into the connected components of the allowed pairs; a
+        component of one pair is that pair, and ``linear_sum_assignment`` gets only the tracks and
+        boxes of the components with a conflict (the same optimum; only exact ties in summed
+        IoU could be broken differently).
         """
-        if len(self.last) and self.last.min() < frame - self.max_age - 1:
-            alive = frame - self.last <= self.max_age + 1
-            self.box, self.last, self.track_id = self.box[:, alive], self.last[alive], self.track_id[alive]
-        n = len(camera)
-        cb = corners(box, camera)
-        ids = np.full(n, -1, np.int64)
-        if len(self.track_id) and n:
-            iou = iou_corners(self.box, cb)
-            r, c = assign(iou, iou >= self.iou_threshold)
-            ids[c] = self.track_id[r]
-            self.box[:, r] = cb[:, c]
-            self.last[r] = frame
-        new = np.flatnonzero(ids < 0)
-        if len(new):
-            new_ids = self.next_id + np.arange(len(new))
-            self.next_id += len(new)
-            ids[new] = new_ids
-            self.box = np.concatenate([self.box, cb[:, new]], axis=1)
-            self.last = np.concatenate([self.last, np.full(len(new), frame, np.int64)])
-            self.track_id = np.concatenate([self.track_id, new_ids])
+        camera = np.ascontiguousarray(camera, dtype=np.int64)
+        box = np.ascontiguousarray(box, dtype=np.float64)
+        tb, tc, tl, ti, cb, r, c, crow, ccol, cost, allowed = _compiled.iou_frame(
+            self.box, self.camera, self.last, self.track_id, int(frame), self.max_age, camera, box, self.iou_threshold)
+        if len(crow):  # conflicts: the assignment, on their tracks and boxes only
+            rr, cc = linear_sum_assignment(cost)
+            keep = allowed[rr, cc]
+            r, c = np.concatenate([r, crow[rr[keep]]]), np.concatenate([c, ccol[cc[keep]]])
+        self.box, self.camera, self.last, self.track_id, ids, self.next_id = _compiled.iou_commit(
+            tb, tc, tl, ti, self.next_id, int(frame), camera, cb, r, c)
         return ids

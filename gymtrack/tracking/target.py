@@ -16,23 +16,37 @@
   centred Savitzky-Golay filter (quadratic, ``2 * half_window + 1`` frames, truncated at a
   segment's ends). Streaming latency: ``half_window`` frames after the point is final, and up
   to ``max_gap + 1`` frames at the end of a segment (until it is known whether the gap closes).
+* :class:`TargetBackfill` -- beyond the paper: Eq. 13 decides from the last Delta frames, so
+  when it identifies a track, the frames it looked at are the target's too. The decisions wait
+  ``backfill_frames`` frames; an identification hands its track the undecided frames (no target)
+  of that look-back, up to the last frame that had a target. The paper's "inevitably lost"
+  frames after every (re-)identification come back, at the price of ``backfill_frames`` frames
+  of latency for the target (the 3D tracks keep theirs). ``backfill_frames = 0`` is the paper.
 * :func:`buffered_boxes` -- Eq. 14. The smoothed 3D centre is projected into every view
   (raw pixels, with distortion) and gets the square box of side ``box_scale * l``: ``l`` is
-  ``max(w, h)`` of the target's detection in that view at that frame; without one, the last
-  ``l`` seen in that view scaled by the change of depth; in a view that never saw the target,
-  the projected length of the body's top-bottom segment. A box is given when the centre is in
-  front of the camera and inside the image.
+  ``max(w, h)`` of the target's detection in that view at that frame. Where the view has no
+  detection of the target (a missed box, or a view that never detects it: n_cam < 4), ``l`` is
+  ``max(w, h)`` of the projected *body box* (:func:`body_box_lengths`): the body's vertical
+  extent (its estimated top and bottom heights) times its horizontal extent, a rectangle aligned
+  with the vertical plane -- half-length along the plane measured from the views that do see the
+  target (their box widths at their depths), half-depth across it a prior
+  (:data:`BODY_HALF_DEPTH`). The paper keeps the last box size, which misses a body that turns
+  from upright to horizontal. A box is given when the centre is in front of the camera and
+  inside the image.
 """
 
 from __future__ import annotations
 
+import warnings
 from functools import lru_cache
+from typing import Sequence
 
 import numpy as np
 from scipy.signal import savgol_coeffs
 
 from ..formats.scene import in_box
 from ..geometry.camera import Rig, _distort_normalised
+from ..geometry.plane import Plane
 from ..detections import Detections
 from .types import INTERPOLATED, Target
 
@@ -172,6 +186,95 @@ class TargetSelector:
         return f + k + 1
 
 
+def backfill(decision: np.ndarray, index: np.ndarray, track_id: np.ndarray, frames: int, since: int = 0,
+             before: int = -1) -> np.ndarray:
+    """Hand newly identified tracks the undecided frames Eq. 13 looked back on (in place).
+
+    decision: (F,) the target's track id per frame (-1: none); index: (n,) frame index (into
+    ``decision``) of each track point; track_id: (n,) its track; frames: how far back an
+    identification reaches; since: only changes of target at indices >= since are handled (the
+    earlier ones were, in an earlier call); before: the decision of the frame before index 0.
+
+    For every index ``k >= since`` where the target becomes a track ``T`` different from the
+    previous frame's, the frames ``k - frames .. k - 1`` after the last frame that had any target
+    become ``T``'s where ``T`` has a point. Returns ``decision``.
+    """
+    if frames <= 0 or len(decision) <= since:
+        return decision
+    prev = np.empty(len(decision) - since, np.int64)
+    prev[0] = decision[since - 1] if since > 0 else before
+    prev[1:] = decision[since:-1]
+    starts = since + np.flatnonzero((decision[since:] >= 0) & (decision[since:] != prev))
+    for k in starts.tolist():  # one per identification: rare
+        lo = max(0, k - frames)
+        decided = np.flatnonzero(decision[lo:k] >= 0)
+        if len(decided):
+            lo += int(decided[-1]) + 1
+        if lo < k:
+            mine = index[(track_id == decision[k]) & (index >= lo) & (index < k)]
+            decision[mine] = decision[k]
+    return decision
+
+
+class TargetBackfill:
+    """The target decisions of the last ``frames`` final frames, held back for :func:`backfill`.
+
+    :meth:`push` takes the decisions of a run of final frames and the track points of those
+    frames (columns, :data:`ROW_FIELDS`, all tracks); :meth:`pop` releases the target's points of
+    the frames up to a given one. State: the points of at most ``frames`` + one call's frames.
+    """
+
+    def __init__(self, frames: int):
+        self.frames = int(frames)
+        self._first: int | None = None  # first frame not yet released
+        self._decision = np.zeros(0, np.int64)
+        self._rows: tuple | None = None
+        self._last = -1  # decision of the last released frame
+
+    def __len__(self) -> int:
+        return 0 if self._rows is None else len(self._rows[0])
+
+    def push(self, a: int, decision: np.ndarray, rows: tuple) -> None:
+        """Final frames ``a .. a + len(decision) - 1``: their decisions (track id or -1) and the
+        track points of those frames in frame order (columns, :data:`ROW_FIELDS`)."""
+        if self._first is None:
+            self._first = a
+        if a != self._first + len(self._decision):
+            raise ValueError(f"frames must follow on: got {a}, expected {self._first + len(self._decision)}")
+        since = len(self._decision)
+        self._decision = np.concatenate([self._decision, np.asarray(decision, np.int64)])
+        rows = _rows(*rows)
+        self._rows = rows if self._rows is None else tuple(np.concatenate(c) for c in zip(self._rows, rows))
+        backfill(self._decision, self._rows[0] - self._first, self._rows[1], self.frames, since, self._last)
+
+    def decisions(self) -> np.ndarray:
+        """(F,) the decisions held, from :attr:`first` on (a view, not a copy)."""
+        return self._decision
+
+    @property
+    def first(self) -> int | None:
+        return self._first
+
+    def pop(self, upto: int | None = None) -> tuple | None:
+        """Release the frames up to ``upto`` (None: all): the target's points among them (columns,
+        :data:`ROW_FIELDS`, frame order), or None when it has none."""
+        if self._first is None or len(self._decision) == 0:
+            return None
+        n = len(self._decision) if upto is None else min(max(upto - self._first + 1, 0), len(self._decision))
+        if n == 0:
+            return None
+        fr, tid = self._rows[0], self._rows[1]
+        done = fr < self._first + n
+        off = fr[done] - self._first
+        take = np.flatnonzero(done)[tid[done] == self._decision[off]]
+        out = _take(self._rows, take) if len(take) else None
+        self._rows = _take(self._rows, ~done)
+        self._last = int(self._decision[n - 1])
+        self._decision = self._decision[n:]
+        self._first += n
+        return out
+
+
 @lru_cache(maxsize=None)
 def _smoothing_weights(left: int, right: int, order: int) -> np.ndarray:
     """Savitzky-Golay weights for a point with ``left`` / ``right`` neighbours: (left+right+1,)."""
@@ -181,16 +284,17 @@ def _smoothing_weights(left: int, right: int, order: int) -> np.ndarray:
     return savgol_coeffs(n, min(order, n - 1), pos=left, use="dot")
 
 
-#: columns of the smoother's rows, in order: frame (n,) int64, track_id (n,) int64, xyz (n, 3),
-#: top_z (n,), bottom_z (n,), source (n,) int8, ell (n, C)
-ROW_FIELDS = ("frame", "track_id", "xyz", "top_z", "bottom_z", "source", "ell")
+#: columns of the target's rows, in order: frame (n,) int64, track_id (n,) int64, xyz (n, 3),
+#: top_z (n,), bottom_z (n,), source (n,) int8, wh (n, C, 2) width and height of the track's
+#: detection per view (raw pixels; NaN where none)
+ROW_FIELDS = ("frame", "track_id", "xyz", "top_z", "bottom_z", "source", "wh")
 
 
-def _rows(frame, track_id, xyz, top_z, bottom_z, source, ell) -> tuple:
+def _rows(frame, track_id, xyz, top_z, bottom_z, source, wh) -> tuple:
     """Columns with the smoother's dtypes (see :data:`ROW_FIELDS`)."""
     return (np.asarray(frame, np.int64), np.asarray(track_id, np.int64), np.asarray(xyz, np.float64),
             np.asarray(top_z, np.float64), np.asarray(bottom_z, np.float64), np.asarray(source, np.int8),
-            np.asarray(ell, np.float64))
+            np.asarray(wh, np.float64))
 
 
 def _cat(parts: list) -> tuple:
@@ -205,10 +309,10 @@ class TargetSmoother:
     """Gap filling and centred smoothing of the target trajectory, streaming.
 
     Points are pushed in frame order, either as columns (:meth:`push_rows`: ``frame (n,),
-    track_id (n,), xyz (n, 3), top_z (n,), bottom_z (n,), source (n,), ell (n, C)``, see
+    track_id (n,), xyz (n, 3), top_z (n,), bottom_z (n,), source (n,), wh (n, C, 2)``, see
     :data:`ROW_FIELDS`) or one at a time as a tuple ``(frame, track_id, xyz (3,), top_z,
-    bottom_z, source, ell (C,))`` (:meth:`push`). ``ell``: the target's ``max(w, h)`` per view,
-    NaN where no detection. Emitted rows have the same layout with ``xyz`` smoothed. State: the
+    bottom_z, source, wh (C, 2))`` (:meth:`push`). ``wh``: width and height of the target's
+    detection per view, NaN where none. Emitted rows have the same layout with ``xyz`` smoothed. State: the
     points of the current segment not yet emitted plus ``half_window`` points of context.
     """
 
@@ -225,9 +329,9 @@ class TargetSmoother:
     # ------------------------------------------------------------ tuple interface
     def push(self, point: tuple) -> list[tuple]:
         """Push one point (tuple); returns the emitted points as tuples."""
-        f, tid, xyz, top, bot, src, ell = point
-        return _tuples(self.push_rows([f], [tid], np.reshape(xyz, (1, 3)), [top], [bot], [src],
-                                      np.reshape(ell, (1, -1))))
+        f, tid, xyz, top, bot, src, wh = point
+        wh = np.asarray(wh, np.float64)
+        return _tuples(self.push_rows([f], [tid], np.reshape(xyz, (1, 3)), [top], [bot], [src], wh[None]))
 
     def advance(self, final_frame: int) -> list[tuple]:
         """Every frame up to ``final_frame`` is final: close the segment if its gap can no longer be filled."""
@@ -238,7 +342,7 @@ class TargetSmoother:
         return _tuples(self.close_rows())
 
     # ------------------------------------------------------------ column interface
-    def push_rows(self, frame, track_id, xyz, top_z, bottom_z, source, ell) -> tuple | None:
+    def push_rows(self, frame, track_id, xyz, top_z, bottom_z, source, wh) -> tuple | None:
         """Push n points in increasing frame order (columns, see the class docstring).
 
         Returns the emitted rows as columns, or None when nothing is emitted. Same result as
@@ -246,7 +350,7 @@ class TargetSmoother:
         linear interpolation, longer gaps end the segment (all its points are emitted)."""
         if len(frame) == 0:
             return None
-        new = _rows(frame, track_id, xyz, top_z, bottom_z, source, ell)
+        new = _rows(frame, track_id, xyz, top_z, bottom_z, source, wh)
         done = self._done
         seq = new if self._buf is None else tuple(np.concatenate(c) for c in zip(self._buf, new))
         gap = np.diff(seq[0]) - 1
@@ -292,11 +396,11 @@ class TargetSmoother:
         i = np.repeat(after, gap)
         k = np.arange(len(i)) - np.repeat(np.cumsum(gap) - gap, gap) + 1  # 1..gap within each gap
         a = k / np.repeat(gap + 1, gap)
-        fr, tid, xyz, top, bot, _, ell = seq
+        fr, tid, xyz, top, bot, _, wh = seq
         a1 = a[:, None]
         return (fr[i] + k, tid[i + 1], xyz[i] * (1 - a1) + xyz[i + 1] * a1, top[i] * (1 - a) + top[i + 1] * a,
                 bot[i] * (1 - a) + bot[i + 1] * a, np.full(len(i), INTERPOLATED, np.int8),
-                np.full((len(i), ell.shape[1]), np.nan))
+                np.full((len(i), *wh.shape[1:]), np.nan))
 
     def _smooth(self, seg: tuple, lo: int, hi: int) -> tuple | None:
         """Rows lo..hi-1 of a segment's points (``seg``, starting with its context) with xyz
@@ -322,26 +426,53 @@ class TargetSmoother:
 
 
 def _tuples(rows: tuple | None) -> list[tuple]:
-    """Columns -> list of point tuples ``(frame, track_id, xyz, top_z, bottom_z, source, ell)``."""
+    """Columns -> list of point tuples ``(frame, track_id, xyz, top_z, bottom_z, source, wh)``."""
     if rows is None:
         return []
-    fr, tid, xyz, top, bot, src, ell = rows
-    return [(int(fr[k]), int(tid[k]), xyz[k], float(top[k]), float(bot[k]), int(src[k]), ell[k])
+    fr, tid, xyz, top, bot, src, wh = rows
+    return [(int(fr[k]), int(tid[k]), xyz[k], float(top[k]), float(bot[k]), int(src[k]), wh[k])
             for k in range(len(fr))]
 
 
-def point_columns(points: list[tuple]) -> tuple:
-    """List of point tuples (the smoother's tuple interface) -> columns (:data:`ROW_FIELDS`)."""
-    return _rows(*zip(*points))
+def track_box_sizes(tracks, boxes: Detections, n_cameras: int) -> np.ndarray:
+    """Width and height of every track point's detection per view: (n, C, 2), NaN where none.
+
+    tracks: rows with ``frame`` and ``track_id`` (n,), sorted by (frame, track_id), one per pair;
+    boxes: the tracks' boxes (``track_id`` = the 3D track), at most one per (frame, view, track).
+    Boxes of a (frame, track) without a point are not used.
+    """
+    wh = np.full((len(tracks.frame), n_cameras, 2), np.nan)
+    if len(tracks.frame) == 0 or len(boxes) == 0:
+        return wh
+    span = int(max(tracks.track_id.max(), boxes.track_id.max())) + 1
+    key = tracks.frame * span + tracks.track_id  # increasing: tracks are sorted
+    bkey = boxes.frame.astype(np.int64) * span + boxes.track_id
+    row = np.minimum(np.searchsorted(key, bkey), len(key) - 1)
+    hit = key[row] == bkey
+    wh[row[hit], boxes.camera[hit].astype(np.int64)] = boxes.box[hit, 2:]
+    return wh
 
 
-def target_and_boxes(rig: Rig, rows: tuple, box_scale: float, memory: dict) -> tuple[Target, Detections]:
+def target_and_boxes(rig: Rig, rows: tuple, box_scale: float, memory: dict,
+                     planes: Sequence[Plane] = ()) -> tuple[Target, Detections]:
     """Smoothed target rows (columns, :data:`ROW_FIELDS`) -> the :class:`Target` and its Eq. 14
-    boxes in every view (:func:`buffered_boxes`; ``memory`` carries its last-box state)."""
-    frame, tid, xyz, top, bot, src, ell = rows
-    box, ok = buffered_boxes(rig, xyz, top, bot, ell, box_scale, memory)
+    boxes in every view (:func:`buffered_boxes`; ``memory`` carries the body box's half-length
+    between calls; ``planes``: the scene's vertical planes, the body box follows the nearest)."""
+    frame, tid, xyz, top, bot, src, wh = rows
+    box, ok = buffered_boxes(rig, xyz, top, bot, wh, box_scale, memory, nearest_normals(planes, xyz))
     n, c = np.nonzero(ok)
     return Target(frame, tid, xyz, src), Detections.from_arrays(frame[n], c, box[n, c], rig.names, track_id=tid[n])
+
+
+def nearest_normals(planes: Sequence[Plane], xyz: np.ndarray) -> np.ndarray | None:
+    """(N, 3) the normal of the plane nearest to each point (xyz (N, 3)); None without planes."""
+    if not planes:
+        return None
+    normals = np.stack([pl.normal for pl in planes])
+    if len(planes) == 1:
+        return np.broadcast_to(normals[0], (len(xyz), 3))
+    dist = np.abs(np.stack([pl.signed_distance(xyz) for pl in planes], axis=1))  # (N, P)
+    return normals[np.argmin(dist, axis=1)]
 
 
 _RIG_ARRAYS: dict[int, tuple] = {}
@@ -392,45 +523,118 @@ def project_all(rig: Rig, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.stack([u, v], axis=-1), z
 
 
+#: metres: half the body's extent across the vertical plane. Views facing the plane cannot
+#: measure it; a gymnast's trunk is ~0.25 m deep and limbs leave the plane in twists and circles.
+BODY_HALF_DEPTH = 0.25
+#: metres: the smallest half-length along the plane (a tucked body seen side-on).
+MIN_HALF_LENGTH = 0.1
+#: metres: half an upright body's height, where the top/bottom heights are unknown.
+DEFAULT_HALF_HEIGHT = 0.9
+#: views that see the plane this obliquely (|cos| between their x-axis and the plane's direction)
+#: tell little about the body's length along it and are not used to measure it.
+MIN_LENGTH_COS = 0.3
+
+
+def body_half_lengths(rig: Rig, wh: np.ndarray, depth: np.ndarray, along: np.ndarray, across: np.ndarray,
+                      half_depth: float | None) -> np.ndarray:
+    """Half-length of the body along the plane, measured per row from the views that detect it.
+
+    wh: (N, C, 2) the target's box width and height per view (NaN: none); depth: (N, C) depth of
+    its centre per view; along, across: (N, 3) horizontal unit vectors along and across the plane.
+    half_depth: the body's half-extent across the plane, or None to tie it to the half-length
+    (no plane: an upright cylinder-like box).
+
+    A box of width ``w`` at depth ``z`` spans ``w z / f`` metres across the view's x-axis ``r``,
+    which the body box fills as ``2 (a |r . along| + b |r . across|)``; solved for ``a`` per view,
+    the largest wins (a cut or occluded box only shrinks). Returns (N,), NaN where no view measured.
+    """
+    R, _, K, _, _, _ = _rig_arrays(rig)
+    right = R[:, 0, :]  # (C, 3) each camera's x-axis in world coordinates
+    ca = np.abs(along @ right.T)  # (N, C)
+    cb = np.abs(across @ right.T)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        metres = wh[..., 0] * depth / K[:, 0, 0]  # (N, C) the box width at the centre's depth
+        if half_depth is None:
+            a = metres / (2 * (ca + cb))
+        else:
+            a = np.where(ca >= MIN_LENGTH_COS, (metres / 2 - half_depth * cb) / ca, np.nan)
+    a = np.where(np.isfinite(a) & (depth > 0), a, -np.inf).max(axis=1)
+    return np.where(np.isfinite(a), np.maximum(a, MIN_HALF_LENGTH), np.nan)
+
+
+def body_box_lengths(rig: Rig, xyz: np.ndarray, top_z: np.ndarray, bottom_z: np.ndarray, half_length: np.ndarray,
+                     along: np.ndarray, across: np.ndarray, half_depth: np.ndarray) -> np.ndarray:
+    """``max(w, h)`` in every view of the projected body box (raw pixels).
+
+    The box: centred on ``xyz`` (N, 3) horizontally, from ``bottom_z`` to ``top_z`` (N,)
+    vertically, ``half_length`` (N,) along ``along`` (N, 3) and ``half_depth`` (N,) across
+    (``across`` (N, 3)). Its 8 corners are projected (with distortion); the result is the
+    larger side of their bounding rectangle, (N, C), NaN where every corner is behind the camera.
+    """
+    N = len(xyz)
+    sa = np.array([-1, 1, -1, 1, -1, 1, -1, 1], np.float64)
+    sb = np.array([-1, -1, 1, 1, -1, -1, 1, 1], np.float64)
+    up = np.array([0, 0, 0, 0, 1, 1, 1, 1], bool)
+    corners = (xyz[:, None, :] + (half_length[:, None] * sa)[..., None] * along[:, None, :]
+               + (half_depth[:, None] * sb)[..., None] * across[:, None, :])  # (N, 8, 3)
+    corners[..., 2] = np.where(up, top_z[:, None], bottom_z[:, None])
+    u, v, _ = _project(rig, corners.reshape(-1, 3))
+    u, v = u.reshape(N, 8, -1), v.reshape(N, 8, -1)
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN: every corner behind the camera
+        return np.maximum(np.nanmax(u, axis=1) - np.nanmin(u, axis=1), np.nanmax(v, axis=1) - np.nanmin(v, axis=1))
+
+
 def buffered_boxes(
     rig: Rig,
     xyz: np.ndarray,
     top_z: np.ndarray,
     bottom_z: np.ndarray,
-    ell: np.ndarray,
+    wh: np.ndarray,
     box_scale: float,
     memory: dict,
+    normal: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Eq. 14 boxes of the target in every view, for rows in frame order.
+    """Eq. 14 boxes of the target in every view, for rows in frame order (see the module docstring).
 
-    xyz: (N, 3) smoothed centres; top_z, bottom_z: (N,); ell: (N, C) ``max(w, h)`` of the
-    target's detection per view (NaN: none); box_scale: alpha; memory: dict carried between
-    calls (``"ell"`` and ``"depth"``: (C,) last seen size and the depth it was seen at).
+    xyz: (N, 3) smoothed centres; top_z, bottom_z: (N,) heights of the body's top and bottom
+    (NaN: unknown, then ``z +- DEFAULT_HALF_HEIGHT``); wh: (N, C, 2) width and height of the
+    target's detection per view (NaN: none); box_scale: alpha; memory: dict carried between calls
+    (``"half_length"``: the body box's last measured half-length); normal: (N, 3) or (3,) normal of
+    the vertical plane the body box is aligned with, or None (no plane: a box as deep as long,
+    aligned with the world axes).
 
     Returns (box (N, C, 4) centre-form raw-pixel squares, ok (N, C) bool).
     """
-    N, C = ell.shape
+    N, C = wh.shape[:2]
     if N == 0:
         return np.full((N, C, 4), np.nan), np.zeros((N, C), bool)
-    mem_ell = memory.setdefault("ell", np.full(C, np.nan))
-    mem_depth = memory.setdefault("depth", np.full(C, np.nan))
     u, v, depth = _project(rig, xyz)
+    ell = wh.max(axis=2)  # (N, C) NaN where no detection
     seen = np.isfinite(ell)
-    # carry the last seen size forward, scaled by depth (apparent size ~ 1 / depth)
-    last = np.maximum.accumulate(np.where(seen, np.arange(N)[:, None], -1), axis=0)
-    prev = np.maximum(last, 0)
-    cols = np.arange(C)
-    known = last >= 0
-    src_ell = np.where(known, ell[prev, cols], mem_ell)
-    src_depth = np.where(known, depth[prev, cols], mem_depth)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        size = np.where(seen, ell, src_ell * src_depth / depth)
-    never = ~np.isfinite(size)
-    if never.any():  # a view that never saw the target: the projected top-bottom extent
-        n, c = np.nonzero(never)
-        tops, _ = project_all(rig, np.column_stack([xyz[n, :2], top_z[n]]))
-        bots, _ = project_all(rig, np.column_stack([xyz[n, :2], bottom_z[n]]))
-        size[n, c] = np.linalg.norm(tops[np.arange(len(n)), c] - bots[np.arange(len(n)), c], axis=1)
+    size = ell.copy()
+    if not seen.all():  # the body box, where a view has no detection of the target
+        if normal is None:
+            across = np.broadcast_to(np.array([0.0, 1.0, 0.0]), (N, 3))
+        else:
+            across = np.array(np.broadcast_to(normal, (N, 3)), dtype=np.float64)
+            across[:, 2] = 0
+            flat = np.linalg.norm(across, axis=1)
+            across = np.where(flat[:, None] > 1e-9, across / np.maximum(flat, 1e-12)[:, None], [0.0, 1.0, 0.0])
+        along = np.stack([-across[:, 1], across[:, 0], np.zeros(N)], axis=1)
+        half_depth = None if normal is None else BODY_HALF_DEPTH
+        a = body_half_lengths(rig, wh, depth, along, across, half_depth)
+        # rows no view measured keep the last measured half-length (first: as long as deep)
+        last = np.maximum.accumulate(np.where(np.isfinite(a), np.arange(N), -1))
+        prior = memory.get("half_length", BODY_HALF_DEPTH)
+        a = np.where(last >= 0, a[np.maximum(last, 0)], prior)
+        memory["half_length"] = float(a[-1])
+        b = a if half_depth is None else np.full(N, half_depth)
+        top = np.where(np.isfinite(top_z), top_z, xyz[:, 2] + DEFAULT_HALF_HEIGHT)
+        bot = np.where(np.isfinite(bottom_z), bottom_z, xyz[:, 2] - DEFAULT_HALF_HEIGHT)
+        n = np.flatnonzero(~seen.all(axis=1))
+        body = body_box_lengths(rig, xyz[n], top[n], bot[n], a[n], along[n], across[n], b[n])
+        size[n] = np.where(seen[n], ell[n], body)
     box = np.empty((N, C, 4))  # every component written below
     box[..., 0] = u
     box[..., 1] = v
@@ -438,9 +642,4 @@ def buffered_boxes(
     sizes = _rig_arrays(rig)[5]  # (C, 2) width, height
     with np.errstate(invalid="ignore"):
         ok = (depth > 0) & (size > 0) & (u >= 0) & (u <= sizes[:, 0]) & (v >= 0) & (v <= sizes[:, 1])
-    has = seen.any(axis=0)
-    if has.any():
-        i = N - 1 - np.argmax(seen[::-1], axis=0)  # last row with a detection, per camera
-        mem_ell[has] = ell[i[has], cols[has]]
-        mem_depth[has] = depth[i[has], cols[has]]
     return box, ok

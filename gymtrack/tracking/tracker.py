@@ -56,7 +56,8 @@ from .linking import link, link_distances, merge_overlaps, relink_distances, tra
 from .plane_fallback import plane_stage
 from .reconstruct import cluster_members, opposite_clusters, outliers, triangulate_clusters
 from .single_view import IoUTracker
-from .target import TargetSelector, TargetSmoother, identify_indicator, target_and_boxes
+from .target import (TargetBackfill, TargetSelector, TargetSmoother, identify_indicator, target_and_boxes,
+                     track_box_sizes)
 from .types import Target, TrackerOutput, Tracks3D, TrackResult, WindowTracklets, WindowTracklets3D
 from .undistort import UndistortTables
 from .windows import build_window
@@ -107,6 +108,7 @@ class Tracker:
         self.iou = IoUTracker(p.iou_threshold, p.max_age)
         self.selector = TargetSelector(p.identify_frames)
         self.smoother = TargetSmoother(p.max_gap)
+        self.backfill = TargetBackfill(p.backfill_frames)
         self._box_memory: dict = {}
         # stream position
         self.first_frame: int | None = None
@@ -128,6 +130,7 @@ class Tracker:
         self._lost: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
         # 2D track ids that were members of the previous window's 3D tracklets (single-view continuation)
         self._prev_2d = np.zeros(0, np.int64)
+        self._prev_seen = np.zeros(0, np.int64)  # 2D tracks of the previous window's segments
         self._rec3d: list[tuple] = []
         self._rec2d: list[tuple] = []
         self._out: list[TrackerOutput] = []
@@ -167,7 +170,7 @@ class Tracker:
                 self._process_window(self._next_start)
             self._finalise(self.last_frame)
             t0 = time.perf_counter()
-            self._emit_target(self.smoother.close())
+            self._flush_target()
             self.timings["target"] += time.perf_counter() - t0
         return self._collect()
 
@@ -177,6 +180,7 @@ class Tracker:
         n += sum(len(r[0]) for r in self._rec3d) + sum(len(r[0]) for r in self._rec2d)
         n += 0 if self._prev is None else self._prev.valid.size
         n += len(self._track_last) + len(self._lost) + len(self._ended) + len(self.selector) + len(self.smoother)
+        n += len(self.backfill)
         return n
 
     def summary(self) -> dict:
@@ -361,7 +365,8 @@ class Tracker:
             apart = None if D2 is None else D2[to_plane][:, to_plane] >= p.cluster_2d
             # beyond the paper: a view left alone may continue, on the plane, the 3D track its 2D
             # track already belongs to (kept below only if it links to that track)
-            single = np.isin(sub.track2d, self._prev_2d)
+            # (and so may a 2D track new in this window: a view's track broke, it may re-link the 3D track)
+            single = np.isin(sub.track2d, self._prev_2d) | ~np.isin(sub.track2d, self._prev_seen)
             pl = plane_stage(sub, self.rig, self.planes, p.cluster_plane, plane_labels, apart, single)
             self.counts["segments_to_plane"] += len(to_plane)
             if len(pl):
@@ -383,22 +388,27 @@ class Tracker:
             solo[len(cur) - len(parts[-1]):] = (parts[-1].members >= 0).sum(axis=1) == 1
         ids = np.full(len(cur), -1, np.int64)
         prev = self._prev
-        if prev is not None and len(prev) and len(cur) and prev.start == start - self.step:
-            r, c = link(link_distances(prev.xyz, prev.valid, cur.xyz, cur.valid, self.step), p.link_3d)
-            ids[c] = prev.track_id[r]
-            self.counts["links"] += len(r)
+        chained = prev is not None and len(prev) > 0 and prev.start == start - self.step
+        # a cascade here too: candidates of several views link first, one-view ones only to what is left
+        for group in ((~solo, solo) if solo.any() else (None,)):
+            cols = np.flatnonzero(ids < 0) if group is None else np.flatnonzero(group & (ids < 0))
+            if chained and len(cols):
+                free = np.flatnonzero(~np.isin(prev.track_id, ids)) if group is not None else np.arange(len(prev))
+                r, c = link(link_distances(prev.xyz[free], prev.valid[free], cur.xyz[cols], cur.valid[cols], self.step),
+                            p.link_3d)
+                ids[cols[c]] = prev.track_id[free[r]]
+                self.counts["links"] += len(r)
+                cols = cols[ids[cols] < 0]
+            if self._lost and len(cols) and p.relink_frames > 0:  # beyond the paper: bridge short gaps
+                lost_ids = np.fromiter(self._lost, np.int64, len(self._lost))
+                lf, lx, lv = (np.array(v) for v in zip(*self._lost.values()))
+                r, c = link(relink_distances(lf, lx, lv, cur.xyz[cols], cur.valid[cols], start, p.relink_frames),
+                            p.link_3d)
+                ids[cols[c]] = lost_ids[r]
+                for tid in lost_ids[r].tolist():
+                    del self._lost[tid]
+                self.counts["relinks"] += len(r)
         new = ids < 0
-        if self._lost and new.any() and p.relink_frames > 0:  # beyond the paper: bridge short gaps
-            lost_ids = np.fromiter(self._lost, np.int64, len(self._lost))
-            lf, lx, lv = (np.array(v) for v in zip(*self._lost.values()))
-            cols = np.flatnonzero(new)
-            r, c = link(relink_distances(lf, lx, lv, cur.xyz[cols], cur.valid[cols], start, p.relink_frames),
-                        p.link_3d)
-            ids[cols[c]] = lost_ids[r]
-            for tid in lost_ids[r].tolist():
-                del self._lost[tid]
-            self.counts["relinks"] += len(r)
-            new = ids < 0
         if solo.any():
             drop = solo & new
             self.counts["plane_single_view"] += int(np.count_nonzero(solo & ~new))
@@ -410,6 +420,7 @@ class Tracker:
                                 cur.members, ids)
         self._record(cur, segs)
         self._prev_2d = segs.track2d[cur.members[cur.members >= 0]]
+        self._prev_seen = segs.track2d
         live = set(ids.tolist())
         gone = [k for k in self._track_last if k not in live]
         if gone:  # not continued: lost, and ended once it can no longer be re-linked
@@ -499,46 +510,39 @@ class Tracker:
         return Detections.from_arrays(frame, cam, t["raw"][row], self.names, score=t["score"][row], track_id=tid)
 
     def _select_target(self, a: int, b: int, tracks: Tracks3D, boxes: Detections) -> tuple[Target, Detections]:
-        """Eq. 13 for the final frames a..b, then gap filling, smoothing and Eq. 14 boxes."""
+        """Eq. 13 for the final frames a..b, the back-fill, then gap filling, smoothing and Eq. 14 boxes."""
         sc = self.scene
         ind, inperf = identify_indicator(tracks.xyz, tracks.top_z, tracks.bottom_z, self.perf,
                                          sc.target.h_top, sc.target.h_bot)
         target = self.selector.select(a, b, tracks.frame, tracks.track_id, ind, inperf, self._ended)  # (b-a+1,)
-        emitted: list[tuple | None] = []  # column tuples (see target.ROW_FIELDS)
-        if np.any(target >= 0):
-            j = np.flatnonzero(tracks.track_id == target[tracks.frame - a])  # the target's point per frame
-            mine = boxes.track_id == target[boxes.frame - a]
-            ell = np.full((b - a + 1, self.n_cameras), np.nan)  # max(w, h) of its boxes per view
-            ell[boxes.frame[mine] - a, boxes.camera[mine]] = boxes.box[mine, 2:].max(axis=1)
-            f = tracks.frame[j]
-            # all the window's target points in one call (columns), not one tuple per point
-            emitted.append(self.smoother.push_rows(f, tracks.track_id[j], tracks.xyz[j], tracks.top_z[j],
-                                                   tracks.bottom_z[j], tracks.source[j], ell[f - a]))
-        emitted.append(self.smoother.advance_rows(b))
+        self.backfill.push(a, target, (tracks.frame, tracks.track_id, tracks.xyz, tracks.top_z, tracks.bottom_z,
+                                       tracks.source, track_box_sizes(tracks, boxes, self.n_cameras)))
+        upto = b - self.params.backfill_frames
+        emitted = [self.smoother.push_rows(*rows)] if (rows := self.backfill.pop(upto)) is not None else []
+        emitted.append(self.smoother.advance_rows(upto))
         # forget ended tracks that can no longer matter
         horizon = b - self.params.identify_frames
         for tid in [k for k, v in self._ended.items() if v < horizon and k != self.selector.target]:
             del self._ended[tid]
         return self._target_rows([e for e in emitted if e is not None])
 
-    def _emit_target(self, emitted: list[tuple]) -> None:
-        """Output the target points the smoother emitted outside a finalisation (point tuples)."""
+    def _flush_target(self) -> None:
+        """End of stream: release the held-back decisions and close the last target segment."""
+        rows = self.backfill.pop()
+        emitted = [self.smoother.push_rows(*rows)] if rows is not None else []
+        emitted.append(self.smoother.close_rows())
+        emitted = [e for e in emitted if e is not None]
         if emitted:
-            f, tid, xyz, top, bot, src, ell = zip(*emitted)  # point tuples -> columns
-            rows = [(np.array(f, np.int64), np.array(tid, np.int64), np.stack(xyz), np.array(top, np.float64),
-                     np.array(bot, np.float64), np.array(src, np.int8), np.stack(ell))]
-            self._out.append(TrackerOutput(Tracks3D.empty(), Detections.empty(self.names), *self._target_rows(rows)))
+            self._out.append(TrackerOutput(Tracks3D.empty(), Detections.empty(self.names), *self._target_rows(emitted)))
 
     def _target_rows(self, emitted: list[tuple]) -> tuple[Target, Detections]:
         """Smoothed target rows (a list of column tuples, see :data:`~.target.ROW_FIELDS`) ->
         the target and its Eq. 14 boxes."""
         if not emitted:
             return Target.empty(), Detections.empty(self.names)
-        frame, tid, xyz, top, bot, src, ell = emitted[0] if len(emitted) == 1 else (
-            np.concatenate(c) for c in zip(*emitted))
-        self.counts["target_frames"] += len(frame)
-        return target_and_boxes(self.rig, (frame, tid, xyz, top, bot, src, ell), self.params.box_scale,
-                                self._box_memory)
+        rows = emitted[0] if len(emitted) == 1 else tuple(np.concatenate(c) for c in zip(*emitted))
+        self.counts["target_frames"] += len(rows[0])
+        return target_and_boxes(self.rig, rows, self.params.box_scale, self._box_memory, self.planes)
 
     def _collect(self) -> TrackerOutput:
         out = TrackerOutput.concat(self._out, self.names) if len(self._out) != 1 else self._out[0]

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import _compiled
 from .types import WindowTracklets
 
 
@@ -122,7 +123,7 @@ def build_window(
     boxes.reshape(-1, 4)[kt] = box[rows]
     observed.ravel()[kt] = True
     dets.ravel()[kt] = det[rows]
-    filled, valid = fill_missing(boxes, observed, max_extrapolate)
+    filled, valid = _compiled.fill_missing(boxes, observed, int(max_extrapolate))  # = fill_missing, compiled
     segs = WindowTracklets(
         start=int(start), camera=cam_of[kept], track2d=(kept + lo) if ids is None else ids[kept].astype(np.int64),
         box=filled, observed=observed, valid=valid, det=dets,
