@@ -194,6 +194,11 @@ def test_backfill_hand_worked():
     np.testing.assert_array_equal(backfill(decision.copy(), index, tid, frames=0), decision)
     # changes before ``since`` were handled already: nothing happens
     np.testing.assert_array_equal(backfill(decision.copy(), index, tid, frames=30, since=7), decision)
+    # a lost target is held (no points) until Eq. 13 lets it go: its successor takes those frames
+    held = np.array([9, 9, 9, 9, 9, 9, 4, 4, 4, -1])  # track 9's last point is at frame 2
+    index2 = np.array([0, 1, 2, 1, 2, 4, 5, 6, 8])
+    tid2 = np.array([9, 9, 9, 4, 4, 4, 4, 4, 4])
+    np.testing.assert_array_equal(backfill(held, index2, tid2, frames=30), [9, 9, 9, 9, 4, 4, 4, 4, 4, -1])
 
 
 def test_target_backfill_streaming_equals_offline():

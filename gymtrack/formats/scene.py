@@ -61,7 +61,7 @@ class TargetSpec(_Strict):
 
 
 class Params(_Strict):
-    """Tracker parameters; every default is the paper's value (Section III-E), except the two
+    """Tracker parameters; every default is the paper's value (Section III-E), except the
     additions beyond the paper, ``relink_frames`` and ``backfill_frames`` (0 turns each off)."""
 
     window: int = Field(10, ge=4, description="omega, frames per window; the step is window // 2")
@@ -77,8 +77,8 @@ class Params(_Strict):
     max_speed: float = Field(1.0, gt=0, description="nu, metres per frame (Eq. 4)")
     identify_frames: int = Field(30, ge=1, description="Delta of Eq. 13")
     backfill_frames: int = Field(
-        30, ge=0, description="frames an identification (Eq. 13) reaches back to give its track the undecided frames "
-        "it looked at; also the target's extra latency (0: the paper, no back-fill)"
+        60, ge=0, description="frames an identification (Eq. 13) reaches back to give its track the "
+        "frames without a target before it; also the target's extra latency (0: the paper, no back-fill)"
     )
     max_gap: int = Field(7, ge=0, description="target gaps up to this many frames are interpolated")
     box_scale: float = Field(1.3, ge=1.0, description="alpha of Eq. 14")

@@ -185,7 +185,6 @@ class TargetSelector:
         out[f + k - a] = self.target
         return f + k + 1
 
-
 def backfill(decision: np.ndarray, index: np.ndarray, track_id: np.ndarray, frames: int, since: int = 0,
              before: int = -1) -> np.ndarray:
     """Hand newly identified tracks the undecided frames Eq. 13 looked back on (in place).
@@ -196,23 +195,27 @@ def backfill(decision: np.ndarray, index: np.ndarray, track_id: np.ndarray, fram
     earlier ones were, in an earlier call); before: the decision of the frame before index 0.
 
     For every index ``k >= since`` where the target becomes a track ``T`` different from the
-    previous frame's, the frames ``k - frames .. k - 1`` after the last frame that had any target
-    become ``T``'s where ``T`` has a point. Returns ``decision``.
+    previous frame's, the frames ``k - frames .. k - 1`` after the last frame whose target had a
+    point there become ``T``'s where ``T`` has a point (a lost target is held until Eq. 13 lets
+    it go, without points: those frames are open to its successor). Returns ``decision``.
     """
     if frames <= 0 or len(decision) <= since:
         return decision
+    pointed = np.zeros(len(decision), bool)  # frames whose target has a point there
+    pointed[index[track_id == decision[index]]] = True
     prev = np.empty(len(decision) - since, np.int64)
     prev[0] = decision[since - 1] if since > 0 else before
     prev[1:] = decision[since:-1]
     starts = since + np.flatnonzero((decision[since:] >= 0) & (decision[since:] != prev))
     for k in starts.tolist():  # one per identification: rare
         lo = max(0, k - frames)
-        decided = np.flatnonzero(decision[lo:k] >= 0)
+        decided = np.flatnonzero(pointed[lo:k])
         if len(decided):
             lo += int(decided[-1]) + 1
         if lo < k:
             mine = index[(track_id == decision[k]) & (index >= lo) & (index < k)]
             decision[mine] = decision[k]
+            pointed[mine] = True
     return decision
 
 
