@@ -160,3 +160,12 @@ def test_a_broken_2d_track_continues_the_3d_track_while_its_view_is_alone():
     truth = traj[0, res.tracks.frame[alone]]
     assert np.linalg.norm(res.tracks.xyz[alone] - truth, axis=1).max() < 0.15
     assert res.summary["plane_single_view"] > 0
+
+
+def test_member_is_isin():
+    from gymtrack.tracking.tracker import member
+
+    rng = np.random.default_rng(0)
+    for n, m in ((0, 0), (0, 3), (4, 0), (1, 1), (30, 20), (400, 300)):
+        a, b = rng.integers(0, 50, n), rng.integers(0, 50, m)
+        np.testing.assert_array_equal(member(a, b), np.isin(a, b))
