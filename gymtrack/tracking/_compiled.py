@@ -2,14 +2,16 @@
 
 Paper: no method of its own; these are the hot loops of Section III-A (IoU tracker), III-B
 (Eq. 2 distances, Algorithm 1, Eq. 3 triangulation, Eq. 4 outliers, Eq. 10 linking) and
-III-C (Eq. 8 plane distances), written as plain loops. The arrays of one frame or window are
-small (tens of boxes, tracklets of 10 frames), so numpy's per-call overhead dominated the
-vectorised versions; each kernel here replaces a dozen or more numpy calls by one call.
+III-C (Eq. 5-7 plane candidates, Eq. 8 plane distances, Eq. 9 fusion), written as plain loops.
+The arrays of one frame or window are small (tens of boxes, tracklets of 10 frames), so numpy's
+per-call overhead dominated the vectorised versions; each kernel here replaces a dozen or more
+numpy calls by one call.
 
 Every kernel computes what its numpy reference computes (named in its docstring; the tests in
-``tests/test_tracking_compiled.py`` compare them on random inputs): the same comparisons,
-tie-breaking and NaN rules, so identifiers and counts never change; floating-point results are
-the same up to rounding where the reference sums in a different order (matrix products).
+``tests/test_tracking_compiled.py`` and ``tests/test_plane_compiled.py`` compare them on random
+inputs): the same comparisons, tie-breaking and NaN rules, so identifiers and counts never
+change; floating-point results are the same up to rounding where the reference sums in a
+different order (matrix products).
 
 Compiled with ``cache=True`` (later processes load the machine code from numba's cache, next
 to this file or in ``NUMBA_CACHE_DIR``); :func:`warm_up` compiles or loads every kernel with
@@ -622,6 +624,214 @@ def candidate_distances(X, observed, camera, exists):
     return D
 
 
+
+@njit(cache=True, error_model="numpy")
+def plane_candidates(box, camera, back, centres, ppoint, pnormal, min_cos):
+    """Eq. 5-7 for the box centre, top-centre and bottom-centre of every segment, frame and plane
+    (:func:`~.plane_fallback.plane_candidates`, the arithmetic of
+    :func:`gymtrack.geometry.plane.intersect_rays_plane`).
+
+    box: (K, W, 4) centre-form undistorted boxes (NaN where not valid); camera: (K,) int64;
+    back: (C, 3, 3) ``R^T K^-1``; centres: (C, 3) camera centres; ppoint, pnormal: (P, 3) plane
+    points and unit normals; min_cos: rays with ``|cos|`` to the normal below it are parallel.
+    Returns X (3, P, K, W, 3) (centre, top, bottom; NaN where there is no intersection) and
+    ok (3, P, K, W) bool: the ray is not parallel (nor NaN / zero) and the plane is in front.
+    """
+    K, W = box.shape[0], box.shape[1]
+    P = ppoint.shape[0]
+    X = np.full((3, P, K, W, 3), _NAN)
+    ok = np.zeros((3, P, K, W), np.bool_)
+    num = np.empty(P)
+    for k in range(K):
+        c = camera[k]
+        o0, o1, o2 = centres[c, 0], centres[c, 1], centres[c, 2]
+        for p in range(P):  # n . (X^p - X^o), one per segment and plane
+            num[p] = (ppoint[p, 0] - o0) * pnormal[p, 0] + (ppoint[p, 1] - o1) * pnormal[p, 1] \
+                + (ppoint[p, 2] - o2) * pnormal[p, 2]
+        for q in range(3):
+            sign = 0.0 if q == 0 else (-0.5 if q == 1 else 0.5)
+            for t in range(W):
+                u = box[k, t, 0]
+                v = box[k, t, 1] if q == 0 else box[k, t, 1] + sign * box[k, t, 3]
+                d0 = back[c, 0, 0] * u + back[c, 0, 1] * v + back[c, 0, 2]
+                d1 = back[c, 1, 0] * u + back[c, 1, 1] * v + back[c, 1, 2]
+                d2 = back[c, 2, 0] * u + back[c, 2, 1] * v + back[c, 2, 2]
+                dlen = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+                for p in range(P):
+                    dn = d0 * pnormal[p, 0] + d1 * pnormal[p, 1] + d2 * pnormal[p, 2]
+                    # written negated so that zero-length and NaN directions count as parallel
+                    if not (abs(dn) >= min_cos * dlen) or not (dlen > 0):
+                        continue
+                    lam = num[p] / dn
+                    if not lam > 0:  # the plane is behind the camera
+                        continue
+                    ok[q, p, k, t] = True
+                    X[q, p, k, t, 0] = o0 + lam * d0
+                    X[q, p, k, t, 1] = o1 + lam * d1
+                    X[q, p, k, t, 2] = o2 + lam * d2
+    return X, ok
+
+
+@njit(cache=True)
+def best_plane_distance(Dp):
+    """:func:`~.plane_fallback.best_plane_distance`: (P, K, K) -> (K, K), the smallest known
+    (not NaN) distance over the planes, NaN where none is known."""
+    P, K = Dp.shape[0], Dp.shape[1]
+    D = np.empty((K, K))
+    for i in range(K):
+        for j in range(K):
+            best = np.inf
+            known = False
+            for p in range(P):
+                x = Dp[p, i, j]
+                if x == x:
+                    known = True
+                    if x < best:
+                        best = x
+            D[i, j] = best if known else _NAN
+    return D
+
+
+@njit(cache=True, error_model="numpy")
+def fuse_on_planes(X, ok, Dp, labels, camera, observed, n_cameras, single, code, interpolated):
+    """Eq. 9, :func:`~.plane_fallback.fuse_on_planes`: the members of each cluster of two or more
+    views (or a permitted single) averaged on the plane that minimises their mean Eq. 8 distance.
+
+    X: (3, P, K, W, 3) centre / top / bottom candidates; ok: (3, P, K, W) where they exist;
+    Dp: (P, K, K) Eq. 8 distances; labels: (K,) int64 clusters (at most one segment per camera);
+    camera: (K,) int64; observed: (K, W) bool; single: (K,) bool segments that may stand alone
+    (or (0,): none); code / interpolated: the source codes of a point with / without an
+    observed view. Returns xyz (M, W, 3), top_z, bottom_z (M, W), valid (M, W), source (M, W)
+    int8, n_views (M, W) int8 and members (M, C) int64, in cluster order.
+    """
+    P = X.shape[1]
+    K, W = observed.shape
+    C = n_cameras
+    n_clusters = 0
+    for k in range(K):
+        if labels[k] + 1 > n_clusters:
+            n_clusters = labels[k] + 1
+    every = np.full((n_clusters, C), -1, np.int64)
+    for k in range(K):
+        every[labels[k], camera[k]] = k
+    keep = np.zeros(n_clusters, np.bool_)
+    M = 0
+    for m in range(n_clusters):
+        count, last = 0, -1
+        for c in range(C):
+            if every[m, c] >= 0:
+                count += 1
+                last = every[m, c] if every[m, c] > last else last
+        keep[m] = count >= 2 or (count == 1 and single.shape[0] > 0 and single[last])
+        if keep[m]:
+            M += 1
+    members = np.empty((M, C), np.int64)
+    a = 0
+    for m in range(n_clusters):
+        if keep[m]:
+            members[a] = every[m]
+            a += 1
+    xyz = np.full((M, W, 3), _NAN)
+    top = np.full((M, W), _NAN)
+    bottom = np.full((M, W), _NAN)
+    valid = np.zeros((M, W), np.bool_)
+    source = np.empty((M, W), np.int8)
+    n_views = np.zeros((M, W), np.int8)
+    for m in range(M):
+        plane = 0
+        if P > 1:  # the plane minimising the mean pairwise distance of the cluster's members
+            best = np.inf
+            for p in range(P):
+                s, n = 0.0, 0
+                for ca in range(C):
+                    i = members[m, ca]
+                    if i < 0:
+                        continue
+                    for cb in range(C):
+                        j = members[m, cb]
+                        if cb == ca or j < 0:
+                            continue
+                        d = Dp[p, i, j]
+                        if np.isfinite(d):
+                            s += d
+                            n += 1
+                mean = s / n if n > 0 else np.inf
+                if mean < best:
+                    best, plane = mean, p
+        for t in range(W):
+            for q in range(3):
+                s0, s1, s2, n = 0.0, 0.0, 0.0, 0
+                for c in range(C):
+                    k = members[m, c]
+                    if k >= 0 and ok[q, plane, k, t]:
+                        s0 += X[q, plane, k, t, 0]
+                        s1 += X[q, plane, k, t, 1]
+                        s2 += X[q, plane, k, t, 2]
+                        n += 1
+                if q == 0:
+                    if n == 0:
+                        break  # no centre: the frame is not valid, top and bottom stay NaN
+                    valid[m, t] = True
+                    xyz[m, t, 0], xyz[m, t, 1], xyz[m, t, 2] = s0 / n, s1 / n, s2 / n
+                elif n > 0:
+                    if q == 1:
+                        top[m, t] = s2 / n
+                    else:
+                        bottom[m, t] = s2 / n
+            nv = 0
+            for c in range(C):
+                k = members[m, c]
+                if k >= 0 and observed[k, t] and ok[0, plane, k, t]:
+                    nv += 1
+            n_views[m, t] = nv
+            source[m, t] = code if nv > 0 else interpolated
+    return xyz, top, bottom, valid, source, n_views, members
+
+
+@njit(cache=True, error_model="numpy")
+def plane_stage(box, observed, camera, back, centres, ppoint, pnormal, min_cos, threshold, group, apart, single,
+                n_cameras, code, interpolated):
+    """The whole plane fallback of one window, :func:`~.plane_fallback.plane_stage`: candidates
+    (:func:`plane_candidates`), Eq. 8 (:func:`candidate_distances`, :func:`best_plane_distance`),
+    Algorithm 1 (:func:`complete_linkage`) and Eq. 9 (:func:`fuse_on_planes`) in one call.
+
+    box (K, W, 4), observed (K, W), camera (K,) int64: the segments; back, centres, ppoint,
+    pnormal, min_cos: as :func:`plane_candidates`; threshold: Algorithm 1 threshold (metres);
+    group: (K,) int64 oracle person ids (pairs of different ids never match) or (0,): none;
+    apart: (K, K) bool pairs that never match, or (0, 0): none; single: (K,) bool or (0,);
+    n_cameras, code, interpolated: as :func:`fuse_on_planes`. Returns what
+    :func:`fuse_on_planes` returns (M = 0 when nothing is fused).
+    """
+    K, W = observed.shape
+    P = ppoint.shape[0]
+    any_single = False
+    for k in range(single.shape[0]):
+        if single[k]:
+            any_single = True
+    if (K < 2 and not any_single) or P == 0:
+        X = np.full((3, P, K, W, 3), _NAN)
+        ok = np.zeros((3, P, K, W), np.bool_)
+        return fuse_on_planes(X, ok, np.zeros((P, K, K)), np.zeros(0, np.int64), camera[:0], observed[:0],
+                              n_cameras, single, code, interpolated)
+    X, ok = plane_candidates(box, camera, back, centres, ppoint, pnormal, min_cos)
+    Dp = candidate_distances(X[0], observed, camera, ok[0])
+    D = best_plane_distance(Dp)
+    agree = False
+    for i in range(K):
+        for j in range(K):
+            if group.shape[0] > 0 and group[i] != group[j]:
+                D[i, j] = np.inf
+            if apart.shape[0] > 0 and apart[i, j]:
+                D[i, j] = np.inf
+            if D[i, j] < threshold:
+                agree = True
+    if not agree and not any_single:  # no two views agree: every candidate is discarded
+        return fuse_on_planes(X, ok, Dp, np.zeros(0, np.int64), camera[:0], observed[:0], n_cameras, single,
+                              code, interpolated)
+    labels = complete_linkage(D, threshold) if agree else np.arange(K)
+    return fuse_on_planes(X, ok, Dp, labels, camera, observed, n_cameras, single, code, interpolated)
+
+
 _WARM = False
 
 
@@ -649,4 +859,12 @@ def warm_up() -> None:
     outliers(xyz, obs, np.zeros(6), 0.1)
     link_distances(xyz, obs, xyz, obs, 1)
     candidate_distances(np.zeros((1, 2, 2, 3)), obs, cam, np.ones((1, 2, 2), bool))
+    back, centres = np.tile(np.eye(3), (2, 1, 1)), np.zeros((2, 3))
+    pp, pn = np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 1.0]])
+    X, ok = plane_candidates(box, cam, back, centres, pp, pn, 1e-3)
+    Dp = candidate_distances(X[0], obs, cam, ok[0])
+    best_plane_distance(Dp)
+    fuse_on_planes(X, ok, Dp, np.zeros(2, i8), cam, obs, 2, np.ones(2, bool), 1, 0)
+    plane_stage(box, obs, cam, back, centres, pp, pn, 1e-3, 0.5, np.zeros(0, i8), np.zeros((0, 0), bool),
+                np.zeros(0, bool), 2, 1, 0)
     _WARM = True

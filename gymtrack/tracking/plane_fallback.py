@@ -18,6 +18,11 @@ views best.
 
 Shared frames are frames where both segments were observed (as for Eq. 2, see
 :mod:`.clustering`); the fused tracklet covers every frame where a member is valid.
+
+Speed: a window hands this stage a few segments, where numpy's per-call overhead dominated,
+so :func:`plane_stage` is one compiled call (:func:`._compiled.plane_stage`: candidates of all
+segments, points and planes, Eq. 8, Algorithm 1, Eq. 9); the other functions here are the same
+kernels one step at a time. Their numpy references are in ``tests/test_plane_compiled.py``.
 """
 
 from __future__ import annotations
@@ -27,9 +32,7 @@ import numpy as np
 from ..geometry.camera import Rig
 from ..geometry.plane import Plane
 from . import _compiled
-from .clustering import complete_linkage
-from .reconstruct import cluster_members, source_for
-from .types import PLANE, WindowTracklets, WindowTracklets3D
+from .types import INTERPOLATED, PLANE, WindowTracklets, WindowTracklets3D
 
 
 def ray_directions(rig: Rig, camera: np.ndarray, uv: np.ndarray) -> np.ndarray:
@@ -53,7 +56,8 @@ def _back_projection(rig: Rig) -> tuple[np.ndarray, np.ndarray]:
         return hit[1]
     Ks = np.stack([c.K for c in rig])
     Rs = np.stack([c.R for c in rig])
-    value = (np.swapaxes(Rs, 1, 2) @ np.linalg.inv(Ks), rig.centres)
+    c = np.ascontiguousarray
+    value = (c(np.swapaxes(Rs, 1, 2) @ np.linalg.inv(Ks), dtype=np.float64), c(rig.centres, dtype=np.float64))
     if len(_BACK) > 16:
         _BACK.clear()
     _BACK[id(rig)] = (rig, value)
@@ -70,45 +74,41 @@ def plane_candidates(
     each plane; NaN where the segment is not valid or the ray misses the plane (parallel, or
     the plane behind the camera).
     """
-    return _candidates(segs, rig, planes, which)[0]
+    X = _candidates(segs, rig, planes)[0]
+    return X[[_POINTS.index(w) for w in which]]
 
 
-def _candidates(segs: WindowTracklets, rig: Rig, planes: list[Plane], which: tuple[str, ...]) -> tuple:
-    """:func:`plane_candidates` and (len(which), P, K, W) bool: where the intersection exists."""
-    K, W = segs.valid.shape
-    P, n = len(planes), len(which)
-    out = np.empty((n, P, K, W, 3))
-    ok = np.zeros((n, P, K, W), bool)
-    if K == 0:
-        return out, ok
-    pts = np.concatenate([segs.points(w) for w in which], axis=1) if n > 1 else segs.points(which[0])  # (K, nW, 2)
-    dirs = ray_directions(rig, segs.camera, pts)
-    origins = _back_projection(rig)[1][segs.camera][:, None, :]  # (K, 1, 3) camera centres X^o
-    for p, plane in enumerate(planes):
-        X, hit = _intersect(origins, dirs, plane)  # (K, nW, 3), (K, nW)
-        out[:, p] = X.reshape(K, n, W, 3).transpose(1, 0, 2, 3)
-        ok[:, p] = hit.reshape(K, n, W).transpose(1, 0, 2)
-    return out, ok
+_POINTS = ("centre", "top", "bottom")
+MIN_COS = 1e-3  #: rays with |cos| to the plane normal below this are parallel (as intersect_rays_plane)
 
 
-def _intersect(origins: np.ndarray, directions: np.ndarray, plane: Plane, min_cos: float = 1e-3) -> tuple:
-    """The points of :func:`gymtrack.geometry.plane.intersect_rays_plane` (NaN where its status is
-    not OK) and where they exist, without the status codes: the same arithmetic, so the same
-    bits, in fewer numpy calls on these small arrays.
+def _candidates(segs: WindowTracklets, rig: Rig, planes: list[Plane]) -> tuple:
+    """(3, P, K, W, 3) centre, top and bottom candidates of :func:`plane_candidates` and
+    (3, P, K, W) bool, where the intersection exists: one compiled call
+    (:func:`._compiled.plane_candidates`, the arithmetic of
+    :func:`gymtrack.geometry.plane.intersect_rays_plane`)."""
+    back, centres = _back_projection(rig)
+    point, normal = _plane_arrays(planes)
+    c = np.ascontiguousarray
+    return _compiled.plane_candidates(c(segs.box, dtype=np.float64), c(segs.camera, dtype=np.int64), back, centres,
+                                      point, normal, MIN_COS)
 
-    origins: (K, 1, 3), one per segment; directions: (K, n, 3). Returns (X (K, n, 3), ok (K, n)).
-    """
-    d = directions
-    dn = (d.reshape(-1, 3) @ plane.normal).reshape(d.shape[:-1])  # one product, not one per segment
-    dlen = np.linalg.norm(d, axis=-1)
-    # written negated so that zero-length and NaN directions count as parallel (no intersection)
-    parallel = ~(np.abs(dn) >= min_cos * dlen) | ~(dlen > 0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        lam = ((plane.point - origins[:, 0]) @ plane.normal)[:, None] / dn  # one origin per segment
-        X = origins + lam[..., None] * d  # inf * 0 for exactly parallel rays: masked below
-    ok = ~(parallel | ~(lam > 0))  # not parallel, plane in front of the camera
-    X[~ok] = np.nan
-    return X, ok
+
+_PLANES: dict[int, tuple] = {}
+
+
+def _plane_arrays(planes: list[Plane]) -> tuple[np.ndarray, np.ndarray]:
+    """(P, 3) points and (P, 3) unit normals of the planes, cached per list of plane objects."""
+    key = tuple(planes)
+    hit = _PLANES.get(id(planes))
+    if hit is not None and hit[0] == key:  # Plane compares by identity
+        return hit[1]
+    value = (np.array([pl.point for pl in planes], np.float64).reshape(-1, 3),
+             np.array([pl.normal for pl in planes], np.float64).reshape(-1, 3))
+    if len(_PLANES) > 16:
+        _PLANES.clear()
+    _PLANES[id(planes)] = (key, value)
+    return value
 
 
 def candidate_distances(X: np.ndarray, observed: np.ndarray, camera: np.ndarray, exists: np.ndarray | None = None
@@ -129,13 +129,7 @@ def candidate_distances(X: np.ndarray, observed: np.ndarray, camera: np.ndarray,
 
 def best_plane_distance(Dp: np.ndarray) -> np.ndarray:
     """(P, K, K) -> (K, K): the smallest known distance over the planes (NaN if none known)."""
-    if Dp.shape[0] == 1:
-        return Dp[0]
-    with np.errstate(all="ignore"):
-        known = ~np.isnan(Dp)
-        D = np.where(known, Dp, np.inf).min(axis=0)
-    D[~known.any(axis=0)] = np.nan
-    return D
+    return _compiled.best_plane_distance(np.ascontiguousarray(Dp, dtype=np.float64))
 
 
 def fuse_on_planes(
@@ -157,40 +151,22 @@ def fuse_on_planes(
     tracklet per cluster of >= 2 members (or a permitted single), source plane; ``members``
     index ``segs``.
     """
-    K, W = segs.valid.shape
-    members = cluster_members(labels, segs.camera, n_cameras)
-    count = (members >= 0).sum(axis=1)
-    keep = count >= 2
-    if single is not None:
-        keep |= (count == 1) & single[np.max(members, axis=1)]
-    members = members[keep]
-    M = len(members)
-    if M == 0:
-        return WindowTracklets3D.empty(segs.start, W, n_cameras)
-    has = members >= 0
-    idx = np.where(has, members, 0)
-    if Dp.shape[0] == 1:  # one plane: nothing to choose
-        plane = np.zeros(M, np.int64)
-    else:  # the plane minimising the mean pairwise distance of the cluster's members
-        pair = has[:, :, None] & has[:, None, :] & ~np.eye(n_cameras, dtype=bool)  # (M, C, C)
-        d = Dp[:, idx[:, :, None], idx[:, None, :]]  # (P, M, C, C)
-        use = pair[None] & np.isfinite(d)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            mean = np.where(use, d, 0.0).sum(axis=(2, 3)) / use.sum(axis=(2, 3))
-        mean[np.isnan(mean)] = np.inf
-        plane = np.argmin(mean, axis=0)  # (M,)
-    c = cand[:, plane[:, None], idx]  # (3, M, C, W, 3)
-    exists = np.all(np.isfinite(c), axis=-1) if exists is None else exists[:, plane[:, None], idx]
-    ok = has[None, :, :, None] & exists  # (3, M, C, W)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        fused = np.where(ok[..., None], c, 0.0).sum(axis=2) / ok.sum(axis=2)[..., None]  # (3, M, W, 3)
-    valid = ok[0].any(axis=1)
-    fused[:, ~valid] = np.nan
-    n_views = (segs.observed[idx] & has[..., None] & ok[0]).sum(axis=1).astype(np.int8)
-    return WindowTracklets3D(
-        segs.start, fused[0], fused[1][..., 2], fused[2][..., 2], valid, source_for(n_views, PLANE), n_views,
-        members, np.full(M, -1, np.int64),
-    )
+    W = segs.width
+    if exists is None:
+        exists = np.all(np.isfinite(cand), axis=-1)
+    c = np.ascontiguousarray
+    out = _compiled.fuse_on_planes(
+        c(cand, dtype=np.float64), c(exists, dtype=bool), c(Dp, dtype=np.float64), c(labels, dtype=np.int64),
+        c(segs.camera, dtype=np.int64), c(segs.observed, dtype=bool), int(n_cameras),
+        _NO_SINGLE if single is None else c(single, dtype=bool), PLANE, INTERPOLATED)
+    return _result(segs.start, W, out)
+
+
+def _result(start: int, W: int, out: tuple) -> WindowTracklets3D:
+    """A kernel's (xyz, top_z, bottom_z, valid, source, n_views, members) as 3D tracklets."""
+    xyz, top, bottom, valid, source, n_views, members = out
+    return WindowTracklets3D(start, xyz, top, bottom, valid, source, n_views, members,
+                             np.full(len(members), -1, np.int64))
 
 
 def plane_stage(
@@ -218,33 +194,21 @@ def plane_stage(
     """
     K, W = segs.valid.shape
     C = len(rig)
-    any_single = single is not None and bool(single.any())
-    if (K < 2 and not any_single) or not planes:
+    if not planes or K == 0 or (K == 1 and (single is None or not single[0])):
         return WindowTracklets3D.empty(segs.start, W, C)
-    if not any_single:
-        # the pairs Eq. 8 could match: other view, not known apart (nor of different oracle
-        # ids), a frame both observed; without any, nothing is fused: skip the geometry
-        obs = segs.observed.astype(np.float64)
-        possible = (segs.camera[:, None] != segs.camera[None, :]) & ((obs @ obs.T) > 0)
-        if labels is not None:
-            possible &= labels[:, None] == labels[None, :]
-        if apart is not None:
-            possible &= ~apart
-        if not possible.any():
-            return WindowTracklets3D.empty(segs.start, W, C)
-    # the centre candidates decide whether anything is fused; the top and bottom ones only then
-    centre, exists = _candidates(segs, rig, planes, ("centre",))
-    Dp = candidate_distances(centre[0], segs.observed, segs.camera, exists[0])
-    D = best_plane_distance(Dp)
-    if labels is not None:
-        D = np.where(labels[:, None] == labels[None, :], D, np.inf)
-    if apart is not None:
-        D = np.where(apart, np.inf, D)
-    with np.errstate(invalid="ignore"):
-        agree = bool(np.any(D < threshold))
-    if not agree and not any_single:  # no two views agree: every candidate is discarded
-        return WindowTracklets3D.empty(segs.start, W, C)
-    labels = complete_linkage(D, threshold) if agree else np.arange(K)
-    rest, rest_exists = _candidates(segs, rig, planes, ("top", "bottom"))
-    cand, exists = np.concatenate([centre, rest]), np.concatenate([exists, rest_exists])
-    return fuse_on_planes(segs, cand, Dp, labels, C, single, exists)
+    # candidates, Eq. 8 on every plane, Algorithm 1 and Eq. 9 in one compiled call: a window
+    # hands a few segments here, where numpy's per-call overhead would dominate
+    back, centres = _back_projection(rig)
+    point, normal = _plane_arrays(planes)
+    c = np.ascontiguousarray
+    out = _compiled.plane_stage(
+        c(segs.box, dtype=np.float64), c(segs.observed, dtype=bool), c(segs.camera, dtype=np.int64), back, centres,
+        point, normal, MIN_COS, float(threshold), _NO_GROUP if labels is None else c(labels, dtype=np.int64),
+        _NO_APART if apart is None else c(apart, dtype=bool), _NO_SINGLE if single is None else c(single, dtype=bool),
+        C, PLANE, INTERPOLATED)
+    return _result(segs.start, W, out)
+
+
+_NO_GROUP = np.zeros(0, np.int64)
+_NO_APART = np.zeros((0, 0), bool)
+_NO_SINGLE = np.zeros(0, bool)

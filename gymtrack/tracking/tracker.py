@@ -397,10 +397,11 @@ class Tracker:
         prev = self._prev
         chained = prev is not None and len(prev) > 0 and prev.start == start - self.step
         # a cascade here too: candidates of several views link first, one-view ones only to what is left
-        for group in ((~solo, solo) if solo.any() else (None,)):
+        for k, group in enumerate((~solo, solo) if solo.any() else (None,)):
             cols = np.flatnonzero(ids < 0) if group is None else np.flatnonzero(group & (ids < 0))
-            if chained and len(cols):
-                free = np.flatnonzero(~member(prev.track_id, ids)) if group is not None else np.arange(len(prev))
+            free = np.flatnonzero(~member(prev.track_id, ids)) if k and chained else None
+            if chained and len(cols) and (free is None or len(free)):
+                free = np.arange(len(prev)) if free is None else free
                 r, c = link(link_distances(prev.xyz[free], prev.valid[free], cur.xyz[cols], cur.valid[cols], self.step),
                             p.link_3d)
                 ids[cols[c]] = prev.track_id[free[r]]
@@ -420,7 +421,8 @@ class Tracker:
             drop = solo & new
             self.counts["plane_single_view"] += int(np.count_nonzero(solo & ~new))
             self.counts["plane_single_view_unlinked"] += int(np.count_nonzero(drop))
-            cur, ids, new = cur.subset(~drop), ids[~drop], new[~drop]
+            if drop.any():
+                cur, ids, new = cur.subset(~drop), ids[~drop], new[~drop]
         ids[new] = self._next_track_id + np.arange(int(new.sum()))
         self._next_track_id += int(new.sum())
         cur = WindowTracklets3D(cur.start, cur.xyz, cur.top_z, cur.bottom_z, cur.valid, cur.source, cur.n_views,
