@@ -2,7 +2,8 @@
 
 Paper: no method of its own; these are the hot loops of Section III-A (IoU tracker), III-B
 (Eq. 2 distances, Algorithm 1, Eq. 3 triangulation, Eq. 4 outliers, Eq. 10 linking) and
-III-C (Eq. 5-7 plane candidates, Eq. 8 plane distances, Eq. 9 fusion), written as plain loops.
+III-C (Eq. 5-7 plane candidates, Eq. 8 plane distances, Eq. 9 fusion) and III-D (Eq. 14 boxes),
+written as plain loops.
 The arrays of one frame or window are small (tens of boxes, tracklets of 10 frames), so numpy's
 per-call overhead dominated the vectorised versions; each kernel here replaces a dozen or more
 numpy calls by one call.
@@ -832,6 +833,115 @@ def plane_stage(box, observed, camera, back, centres, ppoint, pnormal, min_cos, 
     return fuse_on_planes(X, ok, Dp, labels, camera, observed, n_cameras, single, code, interpolated)
 
 
+# ----------------------------------------------------------------------------- Eq. 14 (target stage)
+@njit(cache=True, inline="always")
+def _project_one(X0, X1, X2, R, t, K, dist, c):
+    """One world point into camera ``c``: (u, v, depth), raw pixels with OpenCV's 8-coefficient
+    distortion (NaN u, v behind the camera); :meth:`Camera.project` / ``target._project``."""
+    xc = R[c, 0, 0] * X0 + R[c, 0, 1] * X1 + R[c, 0, 2] * X2 + t[c, 0]
+    yc = R[c, 1, 0] * X0 + R[c, 1, 1] * X1 + R[c, 1, 2] * X2 + t[c, 1]
+    zc = R[c, 2, 0] * X0 + R[c, 2, 1] * X1 + R[c, 2, 2] * X2 + t[c, 2]
+    if not zc > 1e-12:
+        return _NAN, _NAN, zc
+    x = xc / zc
+    y = yc / zc
+    k1, k2, p1, p2, k3, k4, k5, k6 = dist[c, 0], dist[c, 1], dist[c, 2], dist[c, 3], dist[c, 4], dist[c, 5], \
+        dist[c, 6], dist[c, 7]
+    r2 = x * x + y * y
+    radial = (1 + k1 * r2 + k2 * r2 ** 2 + k3 * r2 ** 3) / (1 + k4 * r2 + k5 * r2 ** 2 + k6 * r2 ** 3)
+    xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
+    yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
+    return K[c, 0, 0] * xd + K[c, 0, 1] * yd + K[c, 0, 2], K[c, 1, 1] * yd + K[c, 1, 2], zc
+
+
+@njit(cache=True, error_model="numpy")
+def buffered_boxes(xyz, top_z, bottom_z, wh, box_scale, across, half_depth, tied, prior, R, t, K, dist, sizes,
+                   min_cos, min_half_length, default_half_height):
+    """Eq. 14 boxes with the body box where a view has no detection (``target.buffered_boxes``).
+
+    xyz (N, 3), top_z, bottom_z (N,), wh (N, C, 2), across (N, 3) unit horizontal normals of the
+    plane, half_depth (metres), tied (no plane: half-depth = half-length), prior (the last
+    half-length measured before these rows); R, t, K, dist (C, 8), sizes (C, 2): the rig.
+    Returns (box (N, C, 4), ok (N, C), the last half-length).
+    """
+    N, C = wh.shape[0], wh.shape[1]
+    box = np.empty((N, C, 4))
+    ok = np.zeros((N, C), np.bool_)
+    u = np.empty(C)
+    v = np.empty(C)
+    z = np.empty(C)
+    size = np.empty(C)
+    lo_u = np.empty(C)
+    hi_u = np.empty(C)
+    lo_v = np.empty(C)
+    hi_v = np.empty(C)
+    a_last = prior
+    for n in range(N):
+        X0, X1, X2 = xyz[n, 0], xyz[n, 1], xyz[n, 2]
+        b0, b1 = across[n, 0], across[n, 1]
+        g0, g1 = -b1, b0  # along the plane
+        missing = False
+        best = -np.inf
+        for c in range(C):
+            u[c], v[c], z[c] = _project_one(X0, X1, X2, R, t, K, dist, c)
+            w, h = wh[n, c, 0], wh[n, c, 1]
+            size[c] = max(w, h) if (w == w and h == h) else _NAN
+            if size[c] != size[c]:
+                missing = True
+                continue
+            if not z[c] > 0:
+                continue
+            metres = w * z[c] / K[c, 0, 0]  # the box width at the centre's depth
+            ca = abs(R[c, 0, 0] * g0 + R[c, 0, 1] * g1)
+            cb = abs(R[c, 0, 0] * b0 + R[c, 0, 1] * b1)
+            if tied:
+                a = metres / (2 * (ca + cb))
+            elif ca >= min_cos:
+                a = (metres / 2 - half_depth * cb) / ca
+            else:
+                continue
+            if a == a and abs(a) != np.inf and a > best:
+                best = a
+        if best > -np.inf:
+            a_last = max(best, min_half_length)
+        if missing:
+            a = a_last
+            b = a if tied else half_depth
+            top = top_z[n] if top_z[n] == top_z[n] else X2 + default_half_height
+            bot = bottom_z[n] if bottom_z[n] == bottom_z[n] else X2 - default_half_height
+            for c in range(C):
+                lo_u[c] = np.inf
+                hi_u[c] = -np.inf
+                lo_v[c] = np.inf
+                hi_v[c] = -np.inf
+            for sa in (-1.0, 1.0):
+                for sb in (-1.0, 1.0):
+                    cx = X0 + sa * a * g0 + sb * b * b0
+                    cy = X1 + sa * a * g1 + sb * b * b1
+                    for cz in (bot, top):
+                        for c in range(C):
+                            if size[c] == size[c]:
+                                continue
+                            pu, pv, _ = _project_one(cx, cy, cz, R, t, K, dist, c)
+                            if pu == pu:
+                                lo_u[c] = min(lo_u[c], pu)
+                                hi_u[c] = max(hi_u[c], pu)
+                                lo_v[c] = min(lo_v[c], pv)
+                                hi_v[c] = max(hi_v[c], pv)
+            for c in range(C):
+                if size[c] != size[c] and hi_u[c] >= lo_u[c]:
+                    size[c] = max(hi_u[c] - lo_u[c], hi_v[c] - lo_v[c])
+        for c in range(C):
+            s = box_scale * size[c]
+            box[n, c, 0] = u[c]
+            box[n, c, 1] = v[c]
+            box[n, c, 2] = s
+            box[n, c, 3] = s
+            ok[n, c] = z[c] > 0 and size[c] > 0 and 0 <= u[c] <= sizes[c, 0] and 0 <= v[c] <= sizes[c, 1]
+    return box, ok, a_last
+
+
+
 _WARM = False
 
 
@@ -867,4 +977,7 @@ def warm_up() -> None:
     fuse_on_planes(X, ok, Dp, np.zeros(2, i8), cam, obs, 2, np.ones(2, bool), 1, 0)
     plane_stage(box, obs, cam, back, centres, pp, pn, 1e-3, 0.5, np.zeros(0, i8), np.zeros((0, 0), bool),
                 np.zeros(0, bool), 2, 1, 0)
+    R3 = np.tile(np.eye(3), (2, 1, 1))
+    buffered_boxes(np.zeros((2, 3)), np.ones(2), np.zeros(2), np.full((2, 2, 2), np.nan), 1.3, np.tile([0.0, 1.0, 0.0], (2, 1)),
+                   0.25, False, 0.25, R3, np.ones((2, 3)), R3, np.zeros((2, 8)), np.ones((2, 2)), 0.3, 0.1, 0.9)
     _WARM = True

@@ -26,7 +26,7 @@
   (raw pixels, with distortion) and gets the square box of side ``box_scale * l``: ``l`` is
   ``max(w, h)`` of the target's detection in that view at that frame. Where the view has no
   detection of the target (a missed box, or a view that never detects it: n_cam < 4), ``l`` is
-  ``max(w, h)`` of the projected *body box* (:func:`body_box_lengths`): the body's vertical
+  ``max(w, h)`` of the projected *body box* (see :func:`buffered_boxes`): the body's vertical
   extent (its estimated top and bottom heights) times its horizontal extent, a rectangle aligned
   with the vertical plane -- half-length along the plane measured from the views that do see the
   target (their box widths at their depths), half-depth across it a prior
@@ -37,7 +37,6 @@
 
 from __future__ import annotations
 
-import warnings
 from functools import lru_cache
 from typing import Sequence
 
@@ -47,6 +46,7 @@ from scipy.signal import savgol_coeffs
 from ..formats.scene import in_box
 from ..geometry.camera import Rig, _distort_normalised
 from ..geometry.plane import Plane
+from . import _compiled
 from ..detections import Detections
 from .types import INTERPOLATED, Target
 
@@ -538,56 +538,6 @@ DEFAULT_HALF_HEIGHT = 0.9
 MIN_LENGTH_COS = 0.3
 
 
-def body_half_lengths(rig: Rig, wh: np.ndarray, depth: np.ndarray, along: np.ndarray, across: np.ndarray,
-                      half_depth: float | None) -> np.ndarray:
-    """Half-length of the body along the plane, measured per row from the views that detect it.
-
-    wh: (N, C, 2) the target's box width and height per view (NaN: none); depth: (N, C) depth of
-    its centre per view; along, across: (N, 3) horizontal unit vectors along and across the plane.
-    half_depth: the body's half-extent across the plane, or None to tie it to the half-length
-    (no plane: an upright cylinder-like box).
-
-    A box of width ``w`` at depth ``z`` spans ``w z / f`` metres across the view's x-axis ``r``,
-    which the body box fills as ``2 (a |r . along| + b |r . across|)``; solved for ``a`` per view,
-    the largest wins (a cut or occluded box only shrinks). Returns (N,), NaN where no view measured.
-    """
-    R, _, K, _, _, _ = _rig_arrays(rig)
-    right = R[:, 0, :]  # (C, 3) each camera's x-axis in world coordinates
-    ca = np.abs(along @ right.T)  # (N, C)
-    cb = np.abs(across @ right.T)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        metres = wh[..., 0] * depth / K[:, 0, 0]  # (N, C) the box width at the centre's depth
-        if half_depth is None:
-            a = metres / (2 * (ca + cb))
-        else:
-            a = np.where(ca >= MIN_LENGTH_COS, (metres / 2 - half_depth * cb) / ca, np.nan)
-    a = np.where(np.isfinite(a) & (depth > 0), a, -np.inf).max(axis=1)
-    return np.where(np.isfinite(a), np.maximum(a, MIN_HALF_LENGTH), np.nan)
-
-
-def body_box_lengths(rig: Rig, xyz: np.ndarray, top_z: np.ndarray, bottom_z: np.ndarray, half_length: np.ndarray,
-                     along: np.ndarray, across: np.ndarray, half_depth: np.ndarray) -> np.ndarray:
-    """``max(w, h)`` in every view of the projected body box (raw pixels).
-
-    The box: centred on ``xyz`` (N, 3) horizontally, from ``bottom_z`` to ``top_z`` (N,)
-    vertically, ``half_length`` (N,) along ``along`` (N, 3) and ``half_depth`` (N,) across
-    (``across`` (N, 3)). Its 8 corners are projected (with distortion); the result is the
-    larger side of their bounding rectangle, (N, C), NaN where every corner is behind the camera.
-    """
-    N = len(xyz)
-    sa = np.array([-1, 1, -1, 1, -1, 1, -1, 1], np.float64)
-    sb = np.array([-1, -1, 1, 1, -1, -1, 1, 1], np.float64)
-    up = np.array([0, 0, 0, 0, 1, 1, 1, 1], bool)
-    corners = (xyz[:, None, :] + (half_length[:, None] * sa)[..., None] * along[:, None, :]
-               + (half_depth[:, None] * sb)[..., None] * across[:, None, :])  # (N, 8, 3)
-    corners[..., 2] = np.where(up, top_z[:, None], bottom_z[:, None])
-    u, v, _ = _project(rig, corners.reshape(-1, 3))
-    u, v = u.reshape(N, 8, -1), v.reshape(N, 8, -1)
-    with np.errstate(invalid="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN: every corner behind the camera
-        return np.maximum(np.nanmax(u, axis=1) - np.nanmin(u, axis=1), np.nanmax(v, axis=1) - np.nanmin(v, axis=1))
-
-
 def buffered_boxes(
     rig: Rig,
     xyz: np.ndarray,
@@ -607,42 +557,32 @@ def buffered_boxes(
     the vertical plane the body box is aligned with, or None (no plane: a box as deep as long,
     aligned with the world axes).
 
+    The body box: its half-length ``a`` along the plane is measured in every view with a
+    detection -- a box of width ``w`` at depth ``z`` spans ``w z / f`` metres across the view's
+    x-axis ``r``, which the body box fills as ``2 (a |r . along| + b |r . across|)``; views that
+    see the plane more obliquely than :data:`MIN_LENGTH_COS` are not used; the largest wins (a
+    cut or occluded box only shrinks) and rows without a measurement keep the last one. In a view
+    without a detection ``l`` is ``max(w, h)`` of the rectangle bounding its 8 projected corners.
+    One compiled loop (``_compiled.buffered_boxes``) per call.
+
     Returns (box (N, C, 4) centre-form raw-pixel squares, ok (N, C) bool).
     """
     N, C = wh.shape[:2]
     if N == 0:
         return np.full((N, C, 4), np.nan), np.zeros((N, C), bool)
-    u, v, depth = _project(rig, xyz)
-    ell = wh.max(axis=2)  # (N, C) NaN where no detection
-    seen = np.isfinite(ell)
-    size = ell.copy()
-    if not seen.all():  # the body box, where a view has no detection of the target
-        if normal is None:
-            across = np.broadcast_to(np.array([0.0, 1.0, 0.0]), (N, 3))
-        else:
-            across = np.array(np.broadcast_to(normal, (N, 3)), dtype=np.float64)
-            across[:, 2] = 0
-            flat = np.linalg.norm(across, axis=1)
-            across = np.where(flat[:, None] > 1e-9, across / np.maximum(flat, 1e-12)[:, None], [0.0, 1.0, 0.0])
-        along = np.stack([-across[:, 1], across[:, 0], np.zeros(N)], axis=1)
-        half_depth = None if normal is None else BODY_HALF_DEPTH
-        a = body_half_lengths(rig, wh, depth, along, across, half_depth)
-        # rows no view measured keep the last measured half-length (first: as long as deep)
-        last = np.maximum.accumulate(np.where(np.isfinite(a), np.arange(N), -1))
-        prior = memory.get("half_length", BODY_HALF_DEPTH)
-        a = np.where(last >= 0, a[np.maximum(last, 0)], prior)
-        memory["half_length"] = float(a[-1])
-        b = a if half_depth is None else np.full(N, half_depth)
-        top = np.where(np.isfinite(top_z), top_z, xyz[:, 2] + DEFAULT_HALF_HEIGHT)
-        bot = np.where(np.isfinite(bottom_z), bottom_z, xyz[:, 2] - DEFAULT_HALF_HEIGHT)
-        n = np.flatnonzero(~seen.all(axis=1))
-        body = body_box_lengths(rig, xyz[n], top[n], bot[n], a[n], along[n], across[n], b[n])
-        size[n] = np.where(seen[n], ell[n], body)
-    box = np.empty((N, C, 4))  # every component written below
-    box[..., 0] = u
-    box[..., 1] = v
-    box[..., 2] = box[..., 3] = box_scale * size
-    sizes = _rig_arrays(rig)[5]  # (C, 2) width, height
-    with np.errstate(invalid="ignore"):
-        ok = (depth > 0) & (size > 0) & (u >= 0) & (u <= sizes[:, 0]) & (v >= 0) & (v <= sizes[:, 1])
+    if normal is None:
+        across = np.broadcast_to(np.array([0.0, 1.0, 0.0]), (N, 3))
+    else:
+        across = np.array(np.broadcast_to(normal, (N, 3)), dtype=np.float64)
+        across[:, 2] = 0
+        flat = np.linalg.norm(across, axis=1)
+        across = np.where(flat[:, None] > 1e-9, across / np.maximum(flat, 1e-12)[:, None], [0.0, 1.0, 0.0])
+    R, t, K, dist, _, sizes = _rig_arrays(rig)
+    box, ok, last = _compiled.buffered_boxes(
+        np.ascontiguousarray(xyz, dtype=np.float64), np.ascontiguousarray(top_z, dtype=np.float64),
+        np.ascontiguousarray(bottom_z, dtype=np.float64), np.ascontiguousarray(wh, dtype=np.float64),
+        float(box_scale), np.ascontiguousarray(across), BODY_HALF_DEPTH, normal is None,
+        float(memory.get("half_length", BODY_HALF_DEPTH)), R, t, K, dist, sizes, MIN_LENGTH_COS, MIN_HALF_LENGTH,
+        DEFAULT_HALF_HEIGHT)
+    memory["half_length"] = float(last)
     return box, ok
