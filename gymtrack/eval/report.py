@@ -341,7 +341,9 @@ def report_markdown(rows: Sequence[dict], meta: dict | None = None, plots: Seque
         "",
         "Frames per second of the tracker alone (detector, file reading and evaluation excluded), measured in this "
         "run: all frames / all seconds of the method's tracker calls, each routine in a worker process (see the "
-        "parallel jobs and CPUs above: with as many jobs as CPUs each call has about one core).",
+        "parallel jobs and CPUs above: with as many jobs as CPUs each call has about one core). The methods run "
+        "in an order rotated per routine (the first run on a new rig pays one-off costs) and numba's compilation "
+        "or cache load happens before any clock starts.",
         "",
     ]
     t5 = table5(rows)

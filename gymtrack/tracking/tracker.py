@@ -354,8 +354,9 @@ class Tracker:
                 self.counts["segments_dropped_single"] += int(np.count_nonzero(~multi))
             tri = triangulate_clusters(segs, members[multi], self.P)
             bad = outliers(tri.xyz, tri.valid, self.space, p.max_speed)
-            self.counts["tracklets_outliers"] += int(bad.sum())
-            tri = tri.subset(~bad)
+            if bad.any():
+                self.counts["tracklets_outliers"] += int(bad.sum())
+                tri = tri.subset(~bad)
             self.counts["clusters_triangulated"] += len(tri)
             parts.append(tri)
         t3 = clock()
@@ -369,7 +370,7 @@ class Tracker:
                 plane_labels = np.unique(sub.track2d // C, return_inverse=True)[1]
             # beyond the paper: two segments the epipolar test (Eq. 2) says are different people
             # may not be fused on the plane either (their centre rays can still meet there: a phantom)
-            apart = None if D2 is None else D2[to_plane][:, to_plane] >= p.cluster_2d
+            apart = None if D2 is None else D2[np.ix_(to_plane, to_plane)] >= p.cluster_2d
             # beyond the paper: a view left alone may continue, on the plane, the 3D track its 2D
             # track already belongs to (kept below only if it links to that track)
             # (and so may a 2D track new in this window: a view's track broke, it may re-link the 3D track)
@@ -378,8 +379,9 @@ class Tracker:
             self.counts["segments_to_plane"] += len(to_plane)
             if len(pl):
                 bad = outliers(pl.xyz, pl.valid, self.space, p.max_speed)
-                self.counts["tracklets_outliers"] += int(bad.sum())
-                pl = pl.subset(~bad)
+                if bad.any():
+                    self.counts["tracklets_outliers"] += int(bad.sum())
+                    pl = pl.subset(~bad)
                 members = np.where(pl.members >= 0, to_plane[np.maximum(pl.members, 0)], -1)  # index segs
                 pl = WindowTracklets3D(pl.start, pl.xyz, pl.top_z, pl.bottom_z, pl.valid, pl.source, pl.n_views,
                                        members, pl.track_id)
