@@ -88,7 +88,7 @@ def intersect_rays_plane(
     dlen = np.linalg.norm(d, axis=-1)
     # written negated so that zero-length and NaN directions count as parallel (no intersection)
     parallel = ~(np.abs(dn) >= min_cos * dlen) | ~(dlen > 0)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # (denormal directions overflow)
         lam = ((plane.point - o) @ plane.normal) / dn
         X = o + lam[..., None] * d  # inf * 0 for exactly parallel rays: masked below
     behind = ~parallel & ~(lam > 0)
