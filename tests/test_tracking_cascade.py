@@ -165,6 +165,26 @@ def test_link_is_a_global_assignment_with_a_gate():
     assert len(r) == 0
 
 
+def test_link_matches_a_brute_force_optimum():
+    """Lone pairs are linked directly, conflicts go to the assignment: the result must still be a
+    largest set of gated links with the smallest total distance (checked by enumeration)."""
+    from itertools import permutations
+
+    rng = np.random.default_rng(3)
+    for _ in range(400):
+        m, n = (int(v) for v in rng.integers(0, 5, 2))
+        D = rng.uniform(0, 1.5, (m, n))
+        D[rng.random((m, n)) < 0.25] = np.nan
+        r, c = link(D, gate=0.6)
+        assert len(set(r.tolist())) == len(r) and len(set(c.tolist())) == len(c)
+        assert np.all(D[r, c] <= 0.6)
+        best = (0, 0.0)  # (links, -cost) over every injective map of rows to columns or none
+        for cols in permutations(list(range(n)) + [-1] * m, m):
+            pairs = [(i, j) for i, j in enumerate(cols) if j >= 0 and np.isfinite(D[i, j]) and D[i, j] <= 0.6]
+            best = max(best, (len(pairs), -sum(D[i, j] for i, j in pairs)))
+        assert len(r) == best[0] and D[r, c].sum() == pytest.approx(-best[1])
+
+
 def test_merge_overlaps_averages_the_two_windows():
     # track 4: frame 10 from window k only, frame 11 from both windows (overlap), frame 12 from k+1
     frame = np.array([10, 11, 11, 12])

@@ -53,15 +53,26 @@ def link(D: np.ndarray, gate: float) -> tuple[np.ndarray, np.ndarray]:
     allowed = np.isfinite(D) & (D <= gate)
     if not allowed.any():
         return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    rows = np.flatnonzero(allowed.any(axis=1))
-    cols = np.flatnonzero(allowed.any(axis=0))
+    per_row, per_col = allowed.sum(axis=1), allowed.sum(axis=0)
+    # a pair that is the only option of its row and of its column is in every optimum: linked
+    # directly; the assignment only sees the rows and columns in conflict (usually none)
+    lone = allowed & (per_row[:, None] == 1) & (per_col[None, :] == 1)
+    r0, c0 = np.nonzero(lone)
+    if len(r0) == np.count_nonzero(per_row):
+        return r0, c0
+    rows = np.flatnonzero(per_row > 0)
+    rows = rows[~lone[rows].any(axis=1)]
+    cols = np.flatnonzero(per_col > 0)
+    cols = cols[~lone[:, cols].any(axis=0)]
     sub = allowed[rows][:, cols]  # (two takes: cheaper than np.ix_ on small matrices)
     # a disallowed pair costs more than any set of allowed ones could save
     big = 2.0 * gate * (min(len(rows), len(cols)) + 1) + 1.0
     cost = np.where(sub, D[rows][:, cols], big)
     r, c = linear_sum_assignment(cost)
     keep = sub[r, c]
-    return rows[r[keep]], cols[c[keep]]
+    r, c = np.concatenate([r0, rows[r[keep]]]), np.concatenate([c0, cols[c[keep]]])
+    order = np.argsort(r, kind="stable")
+    return r[order], c[order]
 
 
 def tracklet_ends(xyz: np.ndarray, valid: np.ndarray, start: int, max_speed: float) -> tuple[np.ndarray, ...]:
