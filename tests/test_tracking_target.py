@@ -18,7 +18,7 @@ from test_tracking_synth import ring_rig  # noqa: E402
 from gymtrack.detections import Detections  # noqa: E402
 from gymtrack.tracking.target import (  # noqa: E402
     BODY_HALF_DEPTH, MIN_HALF_LENGTH, MIN_LENGTH_COS, TargetBackfill, TargetSelector, TargetSmoother, backfill,
-    buffered_boxes, identify_indicator, project_all, track_box_sizes)
+    buffered_boxes, identify_indicator, track_box_sizes)
 from gymtrack.tracking.types import INTERPOLATED, TRIANGULATION  # noqa: E402
 
 
@@ -292,12 +292,3 @@ def test_target_backfill_streaming_equals_offline():
     assert got == expected
     assert len(buf) == 0
     assert offline[45] == 3 and np.count_nonzero(offline[60:75] == 8) > 0  # track 8 took frames before 75
-
-
-def test_project_all_matches_camera_project():
-    rig = ring_rig([0, 100, 200], dist=(-0.1, 0.02, 0.001, -0.001, 0.003))
-    X = np.random.default_rng(1).uniform(-2, 2, (30, 3))
-    uv, depth = project_all(rig, X)
-    for c, cam in enumerate(rig):
-        np.testing.assert_allclose(uv[:, c], cam.project(X), atol=1e-9)
-        np.testing.assert_allclose(depth[:, c], cam.depth(X), atol=1e-12)

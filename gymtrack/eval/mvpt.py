@@ -40,8 +40,8 @@ from ..geometry.epipolar import epipolar_distance, fundamental_matrices
 from ..geometry.triangulation import triangulate
 from ..tracking.clustering import complete_linkage
 from ..geometry.plane import Plane
-from ..tracking.target import (TargetSelector, TargetSmoother, backfill, identify_indicator, target_and_boxes,
-                               track_box_sizes)
+from ..tracking.target import (TargetSelector, TargetSmoother, backfill, concat_rows, identify_indicator,
+                               target_and_boxes, track_box_sizes)
 from ..tracking.types import TRIANGULATION, Target, Tracks3D, TrackResult
 
 __all__ = ["undistort_boxes", "associate_frame", "associate", "link_frames", "select_target", "track_mvpt"]
@@ -181,8 +181,7 @@ def select_target(rig: Rig, scene: Scene, tracks: Tracks3D, boxes: Detections, m
     smoother = TargetSmoother(p.max_gap)
     rows = [smoother.push_rows(tracks.frame[mine], tracks.track_id[mine], tracks.xyz[mine], tracks.top_z[mine],
                                tracks.bottom_z[mine], tracks.source[mine], wh[mine]), smoother.close_rows()]
-    rows = [r for r in rows if r is not None]
-    rows = rows[0] if len(rows) == 1 else tuple(np.concatenate(c) for c in zip(*rows))
+    rows = concat_rows([r for r in rows if r is not None])
     planes = [Plane.from_spec(s) for s in scene.planes]
     target, boxes_buf = target_and_boxes(rig, rows, p.box_scale, {}, planes)
     return target, boxes_buf, selector.switches

@@ -837,7 +837,7 @@ def plane_stage(box, observed, camera, back, centres, ppoint, pnormal, min_cos, 
 @njit(cache=True, inline="always")
 def _project_one(X0, X1, X2, R, t, K, dist, c):
     """One world point into camera ``c``: (u, v, depth), raw pixels with OpenCV's 8-coefficient
-    distortion (NaN u, v behind the camera); :meth:`Camera.project` / ``target._project``."""
+    distortion (NaN u, v behind the camera); the model of :meth:`Camera.project`."""
     xc = R[c, 0, 0] * X0 + R[c, 0, 1] * X1 + R[c, 0, 2] * X2 + t[c, 0]
     yc = R[c, 1, 0] * X0 + R[c, 1, 1] * X1 + R[c, 1, 2] * X2 + t[c, 1]
     zc = R[c, 2, 0] * X0 + R[c, 2, 1] * X1 + R[c, 2, 2] * X2 + t[c, 2]

@@ -18,8 +18,8 @@
   to ``max_gap + 1`` frames at the end of a segment (until it is known whether the gap closes).
 * :class:`TargetBackfill` -- beyond the paper: Eq. 13 decides from the last Delta frames, so
   when it identifies a track, the frames it looked at are the target's too. The decisions wait
-  ``backfill_frames`` frames; an identification hands its track the undecided frames (no target)
-  of that look-back, up to the last frame that had a target. The paper's "inevitably lost"
+  ``backfill_frames`` frames; an identification hands its track the frames of that look-back
+  after the last one whose target had a point there (see :func:`backfill`). The paper's "inevitably lost"
   frames after every (re-)identification come back, at the price of ``backfill_frames`` frames
   of latency for the target (the 3D tracks keep theirs). ``backfill_frames = 0`` is the paper.
 * :func:`buffered_boxes` -- Eq. 14. The smoothed 3D centre is projected into every view
@@ -44,7 +44,7 @@ import numpy as np
 from scipy.signal import savgol_coeffs
 
 from ..formats.scene import in_box
-from ..geometry.camera import Rig, _distort_normalised
+from ..geometry.camera import Rig
 from ..geometry.plane import Plane
 from . import _compiled
 from ..detections import Detections
@@ -247,16 +247,8 @@ class TargetBackfill:
         since = len(self._decision)
         self._decision = np.concatenate([self._decision, np.asarray(decision, np.int64)])
         rows = _rows(*rows)
-        self._rows = rows if self._rows is None else tuple(np.concatenate(c) for c in zip(self._rows, rows))
+        self._rows = rows if self._rows is None else concat_rows([self._rows, rows])
         backfill(self._decision, self._rows[0] - self._first, self._rows[1], self.frames, since, self._last)
-
-    def decisions(self) -> np.ndarray:
-        """(F,) the decisions held, from :attr:`first` on (a view, not a copy)."""
-        return self._decision
-
-    @property
-    def first(self) -> int | None:
-        return self._first
 
     def pop(self, upto: int | None = None) -> tuple | None:
         """Release the frames up to ``upto`` (None: all): the target's points among them (columns,
@@ -300,7 +292,8 @@ def _rows(frame, track_id, xyz, top_z, bottom_z, source, wh) -> tuple:
             np.asarray(wh, np.float64))
 
 
-def _cat(parts: list) -> tuple:
+def concat_rows(parts: list) -> tuple:
+    """Row-wise concatenation of column tuples (:data:`ROW_FIELDS`), e.g. what the smoother emitted."""
     return parts[0] if len(parts) == 1 else tuple(np.concatenate(c) for c in zip(*parts))
 
 
@@ -361,7 +354,7 @@ class TargetSmoother:
         if len(gap) and gap.max() > 0:  # (rare) gaps: filled, or ending the segment
             fill = np.flatnonzero((gap > 0) & (gap <= self.max_gap))
             if len(fill):  # interpolated points, then everything back in frame order
-                seq = _cat([seq, self._interpolate(seq, fill, gap[fill])])
+                seq = concat_rows([seq, self._interpolate(seq, fill, gap[fill])])
                 seq = _take(seq, np.argsort(seq[0], kind="stable"))
                 gap = np.diff(seq[0]) - 1
             ends = (np.flatnonzero(gap > self.max_gap) + 1).tolist()  # segment boundaries
@@ -377,7 +370,7 @@ class TargetSmoother:
         drop = max(ready - self.h, 0)  # keep h emitted points as left context
         self._buf, self._done = (_take(last, slice(drop, None)) if drop else last), ready - drop
         out = [o for o in out if o is not None]
-        return _cat(out) if out else None
+        return concat_rows(out) if out else None
 
     def advance_rows(self, final_frame: int) -> tuple | None:
         """Column form of :meth:`advance`."""
@@ -482,8 +475,7 @@ _RIG_ARRAYS: dict[int, tuple] = {}
 
 
 def _rig_arrays(rig: Rig) -> tuple:
-    """(R (C,3,3), t (C,3), K (C,3,3), dist (C,8), R as a (3, 3C) matrix for ``X @ R_cols``,
-    image sizes (C, 2)) of a rig, cached per rig object."""
+    """(R (C,3,3), t (C,3), K (C,3,3), dist (C,8), image sizes (C, 2)) of a rig, cached per rig object."""
     hit = _RIG_ARRAYS.get(id(rig))
     if hit is not None and hit[0] is rig:
         return hit[1]
@@ -492,38 +484,11 @@ def _rig_arrays(rig: Rig) -> tuple:
         dist[i, : c.dist.size] = c.dist[:8]
     R = np.stack([c.R for c in rig])
     arrays = (R, np.stack([c.t for c in rig]), np.stack([c.K for c in rig]), dist,
-              np.ascontiguousarray(R.transpose(2, 0, 1).reshape(3, -1)),
               np.array([cam.size for cam in rig], dtype=np.float64))
     if len(_RIG_ARRAYS) > 16:
         _RIG_ARRAYS.clear()
     _RIG_ARRAYS[id(rig)] = (rig, arrays)
     return arrays
-
-
-def _project(rig: Rig, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`project_all` as separate (N, C) arrays u, v, depth."""
-    R, t, K, dist, R_cols, _ = _rig_arrays(rig)
-    X = np.asarray(X, dtype=np.float64)
-    Xc = (X @ R_cols).reshape(len(X), -1, 3) + t  # (N, C, 3) camera coordinates, one matrix product
-    z = Xc[..., 2]
-    front = z > 1e-12
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x = np.where(front, Xc[..., 0] / z, np.nan)
-        y = np.where(front, Xc[..., 1] / z, np.nan)
-    x, y = _distort_normalised(x, y, dist.T)
-    u = K[:, 0, 0] * x + K[:, 0, 1] * y + K[:, 0, 2]
-    v = K[:, 1, 1] * y + K[:, 1, 2]
-    return u, v, z
-
-
-def project_all(rig: Rig, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Project points into every camera at once (raw pixels, with distortion).
-
-    X: (N, 3) world points. Returns (uv (N, C, 2), depth (N, C)); uv is NaN behind a camera.
-    Same model as :meth:`Camera.project`, vectorised over the cameras.
-    """
-    u, v, z = _project(rig, X)
-    return np.stack([u, v], axis=-1), z
 
 
 #: metres: half the body's extent across the vertical plane. Views facing the plane cannot
@@ -577,7 +542,7 @@ def buffered_boxes(
         across[:, 2] = 0
         flat = np.linalg.norm(across, axis=1)
         across = np.where(flat[:, None] > 1e-9, across / np.maximum(flat, 1e-12)[:, None], [0.0, 1.0, 0.0])
-    R, t, K, dist, _, sizes = _rig_arrays(rig)
+    R, t, K, dist, sizes = _rig_arrays(rig)
     box, ok, last = _compiled.buffered_boxes(
         np.ascontiguousarray(xyz, dtype=np.float64), np.ascontiguousarray(top_z, dtype=np.float64),
         np.ascontiguousarray(bottom_z, dtype=np.float64), np.ascontiguousarray(wh, dtype=np.float64),

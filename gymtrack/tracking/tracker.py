@@ -63,14 +63,18 @@ from .linking import link, link_distances, merge_overlaps, relink_distances, tra
 from .plane_fallback import plane_stage
 from .reconstruct import cluster_members, opposite_clusters, outliers, triangulate_clusters
 from .single_view import IoUTracker
-from .target import (TargetBackfill, TargetSelector, TargetSmoother, identify_indicator, target_and_boxes,
-                     track_box_sizes)
+from .target import (TargetBackfill, TargetSelector, TargetSmoother, concat_rows, identify_indicator,
+                     target_and_boxes, track_box_sizes)
 from .types import Target, TrackerOutput, Tracks3D, TrackResult, WindowTracklets, WindowTracklets3D
 from .undistort import UndistortTables
 from .windows import build_window
 
 MODES = ("cascade", "triangulation", "plane")
 ASSOCIATIONS = ("iou", "oracle")
+#: the per-window counters of :meth:`Tracker.summary` (what was used, made, dropped)
+COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulated", "segments_to_plane",
+          "plane_tracklets", "segments_dropped_single", "tracklets_outliers", "links", "relinks", "plane_single_view",
+          "plane_single_view_unlinked")
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
 
 
@@ -208,18 +212,7 @@ class Tracker:
             "target_frames": int(self.counts["target_frames"]),
             "target_switches": int(self.selector.switches),
             "target_identifications": int(self.selector.identifications),
-            "windows": int(self.counts["windows"]),
-            "segments": int(self.counts["segments"]),
-            "segments_dropped_short": int(self.counts["segments_dropped_short"]),
-            "clusters_triangulated": int(self.counts["clusters_triangulated"]),
-            "segments_to_plane": int(self.counts["segments_to_plane"]),
-            "plane_tracklets": int(self.counts["plane_tracklets"]),
-            "segments_dropped_single": int(self.counts["segments_dropped_single"]),
-            "tracklets_outliers": int(self.counts["tracklets_outliers"]),
-            "links": int(self.counts["links"]),
-            "relinks": int(self.counts["relinks"]),
-            "plane_single_view": int(self.counts["plane_single_view"]),
-            "plane_single_view_unlinked": int(self.counts["plane_single_view_unlinked"]),
+            **{k: int(self.counts[k]) for k in COUNTS},
             "seconds": {k: round(v, 6) for k, v in self.timings.items()},
             "seconds_total": round(total, 6),
             "fps": round(frames / total, 1) if total > 0 else None,
@@ -401,9 +394,9 @@ class Tracker:
         # a cascade here too: candidates of several views link first, one-view ones only to what is left
         for k, group in enumerate((~solo, solo) if solo.any() else (None,)):
             cols = np.flatnonzero(ids < 0) if group is None else np.flatnonzero(group & (ids < 0))
-            free = np.flatnonzero(~member(prev.track_id, ids)) if k and chained else None
-            if chained and len(cols) and (free is None or len(free)):
-                free = np.arange(len(prev)) if free is None else free
+            # the first pass may link any previous tracklet, the second only those still free
+            free = (np.flatnonzero(~member(prev.track_id, ids)) if k else np.arange(len(prev))) if chained else []
+            if len(cols) and len(free):
                 r, c = link(link_distances(prev.xyz[free], prev.valid[free], cur.xyz[cols], cur.valid[cols], self.step),
                             p.link_3d)
                 ids[cols[c]] = prev.track_id[free[r]]
@@ -551,7 +544,7 @@ class Tracker:
         the target and its Eq. 14 boxes."""
         if not emitted:
             return Target.empty(), Detections.empty(self.names)
-        rows = emitted[0] if len(emitted) == 1 else tuple(np.concatenate(c) for c in zip(*emitted))
+        rows = concat_rows(emitted)
         self.counts["target_frames"] += len(rows[0])
         return target_and_boxes(self.rig, rows, self.params.box_scale, self._box_memory, self.planes)
 
