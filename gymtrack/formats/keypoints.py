@@ -112,7 +112,8 @@ def _bbox(v: Any, src: Path, field: str) -> np.ndarray:
     return b
 
 
-def _load_json(path: Path) -> Any:
+def load_json(path: Path) -> Any:
+    """The parsed JSON of ``path``; unreadable or invalid JSON raises InputError naming file and line."""
     text = read_text(path)
     try:
         return json.loads(text)
@@ -214,7 +215,7 @@ def _read_openpose(folder: Path, camera_index: int, camera_names: Sequence[str])
         if m is None or not path.is_file():
             raise InputError("not an OpenPose file '*_<12-digit frame>_keypoints.json'", source=path)
         frame = int(m.group(1))
-        doc = _load_json(path)
+        doc = load_json(path)
         people = doc.get("people") if isinstance(doc, dict) else None
         if not isinstance(people, list):
             raise InputError("must be an object with a list 'people'", source=path, field="people")
@@ -234,7 +235,7 @@ def _read_file(path: Path, camera_index: int, camera_names: Sequence[str],
     sk = get_skeleton(skeleton) if isinstance(skeleton, str) else skeleton
     if path.is_dir():
         return _read_openpose(path, camera_index, camera_names), True
-    doc = _load_json(path)
+    doc = load_json(path)
     if isinstance(doc, list):
         return _read_coco(doc, path, camera_index, camera_names, sk)
     if isinstance(doc, dict):
