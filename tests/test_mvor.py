@@ -126,3 +126,6 @@ def test_detection_layout_is_coco17_and_association_links_most(mvor):
         assert accounted > 0.8, (name, accounted)
     assert mvor.detections["rtpose"].counts["linked"] / mvor.detections["rtpose"].counts["entries"] > 0.8
     assert mvor.detections["openpose"].counts["repeated"] == 890  # the README's defect
+    dense = mvor.detected_keypoints("rtpose")
+    assert dense.shape == mvor.keypoints2d.shape
+    assert (dense[..., 2] > 0).any(-1).sum() == mvor.detections["rtpose"].counts["linked"]

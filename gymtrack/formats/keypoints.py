@@ -137,7 +137,8 @@ def _native_skeleton(doc: dict, path: Path) -> Skeleton:
         # a known joint list is that skeleton, so files of the same model agree
         return next((s for s in SKELETONS.values() if s.joints == sk.joints), sk)
     if name is None:
-        raise InputError("missing: give 'skeleton' (coco17, body25, halpe26) or 'joints'", source=path, field="skeleton")
+        raise InputError("missing: give 'skeleton' (coco17, body25, halpe26) or 'joints'",
+                         source=path, field="skeleton")
     try:
         return get_skeleton(name)
     except InputError as e:
@@ -264,6 +265,8 @@ def read_keypoints(path_or_folder: str | Path, camera_names: Sequence[str],
     """
     root = Path(path_or_folder)
     camera_names = tuple(camera_names)
+    if not camera_names:
+        raise InputError("no camera names given", source=root)
     if not root.exists():
         raise InputError("keypoints folder not found", source=root)
     if root.is_file():
@@ -274,7 +277,8 @@ def read_keypoints(path_or_folder: str | Path, camera_names: Sequence[str],
     for c, name in enumerate(camera_names):
         file, folder = root / f"{name}.json", root / name
         if file.is_file() and folder.is_dir():
-            raise InputError(f"camera {name!r} has both {file.name} and an OpenPose folder {name}/; keep one", source=root)
+            raise InputError(f"camera {name!r} has both {file.name} and an OpenPose folder {name}/; keep one",
+                             source=root)
         if not file.is_file() and not folder.is_dir():
             raise InputError(f"no keypoints for camera {name!r}: expected {name}.json or an OpenPose folder {name}/",
                              source=root)

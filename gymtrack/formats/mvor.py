@@ -134,6 +134,20 @@ class MVOR:
         """(F, P) int64: in how many views the person has a GT 2D annotation."""
         return np.isfinite(self.boxes2d[..., 0]).sum(1)
 
+    def detected_keypoints(self, detector: str = "openpose") -> np.ndarray:
+        """(F, V, P, J, 3) the linked detections of ``detector`` mapped to the 10 GT joints, laid out
+        like ``keypoints2d`` (``[x, y, s]``; NaN x, y and s 0 where no detection is linked), ready
+        for lifting person by person: ``detected_keypoints()[f, :, p][None]`` is (T=1, C, J, 3)."""
+        F, V, P = self.boxes2d.shape[:3]
+        out = np.zeros((F, V, P, len(MVOR_JOINTS), 3))
+        out[..., :2] = np.nan
+        m = self.detections[detector].mapped
+        linked = m.track_id >= 0
+        kp = m.keypoints[linked].copy()
+        kp[kp[..., 2] <= 0] = [np.nan, np.nan, 0.0]
+        out[m.frame[linked], m.camera[linked], m.track_id[linked]] = kp
+        return out
+
 
 def mvor_rig(cam_params: dict, source: str | Path = "camma_mvor_2018.json") -> Rig:
     """The 3 cameras from ``cameras_info.camParams`` (pinhole, no distortion, world = cam1 in metres)."""
