@@ -32,9 +32,10 @@ import numpy as np
 
 from ..detections import Detections
 from ..errors import InputError, RoutineError
-from ..formats.scene import Scene
+from ..scene import Scene
 from ..geometry.camera import Rig
-from .gt import GroundTruth, load_ground_truth, with_gt_ids
+from ..formats.ground_truth import GroundTruth, load_ground_truth
+from .gt import with_gt_ids
 from .metrics import (
     average_euclidean_distance,
     coverage,

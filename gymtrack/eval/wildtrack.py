@@ -37,7 +37,8 @@ from pathlib import Path
 import numpy as np
 
 from ..detections import Detections
-from ..formats.scene import Scene, scene_from_dict
+from ..formats.scene import scene_from_dict
+from ..scene import Scene
 from .metrics import mot_metrics, nearest_person
 
 __all__ = ["WildtrackSetup", "noisy_detections", "wildtrack_scene", "run_wildtrack", "wildtrack_markdown", "DEFAULT_PATH"]

@@ -25,7 +25,8 @@ import numpy as np
 from ..apparatus import APPARATUS_NAMES, Apparatus, get_apparatus
 from ..detections import Detections
 from ..errors import InputError
-from ..formats.scene import Scene, preset_scene
+from ..formats.scene import preset_scene, save_scene
+from ..scene import Scene
 from ..geometry.camera import Rig
 from . import body as B
 from .detector import DetectorParams, TrueBoxes, detect, true_boxes
@@ -139,8 +140,8 @@ class SimulatedRoutine:
         return out
 
     def ground_truth(self):
-        """The ground truth as :class:`gymtrack.eval.gt.GroundTruth` (what ``gt/`` holds)."""
-        from ..eval.gt import GroundTruth
+        """The ground truth as :class:`gymtrack.formats.ground_truth.GroundTruth` (what ``gt/`` holds)."""
+        from ..formats.ground_truth import GroundTruth
 
         pi, ti = np.nonzero(self.alive)
         order = np.lexsort((self.person_id[pi], ti))
@@ -204,7 +205,7 @@ class SimulatedRoutine:
         (out / "detections").mkdir(parents=True, exist_ok=True)
         (out / "gt" / "boxes_2d").mkdir(parents=True, exist_ok=True)
         write_native(self.rig, out / "cameras.yaml")
-        self.scene.save(out / "scene.yaml")
+        save_scene(self.scene, out / "scene.yaml")
         d = self.detections
         for c, name in enumerate(self.rig.names):
             m = d.camera == c
