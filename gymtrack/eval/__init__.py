@@ -5,7 +5,9 @@
   :mod:`gymtrack.formats.ground_truth`
 * :mod:`.mvpt`       the frame-by-frame MvPT-like baseline
 * :mod:`.benchmark`  every method on every routine of a suite, in parallel processes
-* :mod:`.report`     Tables 3, 5, 6, the claims, report.md / CSV / JSON, Fig. 6 plots
+* :mod:`.aggregate`  Tables 3, 5, 6 and the claims from the benchmark's rows
+* :mod:`.render`     report.md / CSV / JSON, Fig. 6 plots (:mod:`.report` re-exports both)
+* :mod:`.config`     the claims' thresholds and the data paths
 * :mod:`.wildtrack`  the real-data section on WILDTRACK
 
 Only the light modules are imported here; the others pull in the tracker and are imported on use.
