@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
+from conftest import WILDTRACK
 from gymtrack.detections import Detections
 from gymtrack.eval.wildtrack import WildtrackSetup, noisy_detections, run_wildtrack, wildtrack_markdown
 
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "wildtrack"
+DATA = WILDTRACK
 
 
 def test_noisy_detections_counts_and_seed():

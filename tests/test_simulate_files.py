@@ -10,7 +10,7 @@ import pytest
 from typer.testing import CliRunner
 
 from gymtrack.cli import app
-from gymtrack.eval.gt import load_ground_truth, read_persons_3d
+from gymtrack.formats.ground_truth import load_ground_truth, read_persons_3d
 from gymtrack.formats.calibration import read_native
 from gymtrack.formats.motchallenge import parse_mot_table, read_gt_boxes
 from gymtrack.formats.routine import load_routine

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import WILDTRACK
 from gymtrack.errors import CalibrationError, DetectionFormatError
 from gymtrack.formats.calibration import detect_format, load_calibration
 from gymtrack.formats.wildtrack import (
@@ -18,7 +19,6 @@ from gymtrack.formats.wildtrack import (
 )
 from gymtrack.geometry import Rig
 
-WILDTRACK = Path(__file__).resolve().parents[2] / "shared" / "data" / "wildtrack"
 needs_wildtrack = pytest.mark.skipif(
     not (WILDTRACK / "calibrations").is_dir(),
     reason=f"WILDTRACK data not found at {WILDTRACK} (shared/data/wildtrack beside the repository)",
