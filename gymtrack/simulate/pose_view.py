@@ -119,7 +119,7 @@ def choose_person(uv: np.ndarray, depth: np.ndarray, crop: np.ndarray, grow: flo
     return np.where(best_ov >= min_overlap, best, -1).astype(np.int64), best_ov
 
 
-def _closest_on_segments(p0, p1, q0, q1):
+def closest_on_segments(p0, p1, q0, q1):
     """Closest points of segments p0-p1 and q0-q1 (..., 3), broadcast: returns (s, t, distance)
     with s, t in [0, 1] the parameters along each."""
     d1, d2, r = p1 - p0, q1 - q0, p0 - q0
@@ -131,6 +131,7 @@ def _closest_on_segments(p0, p1, q0, q1):
     den = a * e - b * b
     with np.errstate(invalid="ignore", divide="ignore"):
         s = np.where(den > 1e-12, np.clip((b * f - c * e) / den, 0, 1), 0.0)
+        s = np.where(e > 1e-12, s, np.clip(-c / np.where(a > 1e-12, a, 1.0), 0, 1))  # q is a point (a sphere)
         t = np.where(e > 1e-12, (b * s + f) / e, 0.0)
         # t outside [0, 1]: clamp it and recompute s for the clamped t
         tc = np.clip(t, 0, 1)
@@ -158,7 +159,7 @@ def self_occluded(X: np.ndarray, centre: np.ndarray, margin: float = 0.5) -> np.
     rad = CAPSULES[:, 2][None] * H  # (N, K)
     p0 = np.broadcast_to(centre[:, None, None, :], (X.shape[0], 17, 1, 3))
     p1 = X[:, :, None, :]
-    s, _, dist = _closest_on_segments(p0, p1, A[:, None], Bc[:, None])  # (N, 17, K)
+    s, _, dist = closest_on_segments(p0, p1, A[:, None], Bc[:, None])  # (N, 17, K)
     L = np.linalg.norm(X - centre[:, None, :], axis=-1)[..., None]  # (N, 17, 1)
     blocks = (dist < rad[:, None, :]) & (s * L < L - margin * rad[:, None, :])
     own = (a_i[None, :] == np.arange(17)[:, None]) | (b_i[None, :] == np.arange(17)[:, None])  # (17, K)
