@@ -90,7 +90,8 @@ def _inter(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return w * h
 
 
-def choose_person(uv: np.ndarray, depth: np.ndarray, crop: np.ndarray, grow: float, min_overlap: float) -> tuple[np.ndarray, np.ndarray]:
+def choose_person(uv: np.ndarray, depth: np.ndarray, crop: np.ndarray, grow: float,
+                  min_overlap: float) -> tuple[np.ndarray, np.ndarray]:
     """The person each crop holds most.
 
     uv (N, P, 17, 2), depth (N, P, 17), crop (N, 4) xyxy. Person p's hold on crop n is
