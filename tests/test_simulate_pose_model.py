@@ -140,6 +140,12 @@ def test_joints_outside_the_crop_are_clamped_with_low_scores():
     assert out.outside[:, LA].all()
     np.testing.assert_allclose(out.poses.keypoints[:, LA, 1], bottom)
     assert out.poses.keypoints[:, LA, 2].max() < 0.3 and out.poses.keypoints[:, LS, 2].mean() > 0.7
+    # feet off the image but inside the crop (its padding): low scores, not clamped
+    c0 = _rig()[0]
+    low = Rig([Camera("cam0", (1920, 600), c0.K, c0.R, c0.t)])  # a short image: the feet fall below it
+    o2 = _run(low, kp[None], _standard_crops(low, kp))
+    feet_off = low[0].project(kp)[:, LA, 1] > 600
+    assert feet_off.all() and not o2.outside[:, LA].any() and o2.poses.keypoints[:, LA, 2].max() < 0.3
     x = out.poses.keypoints[..., 0]
     assert np.all((x >= crops[:, :1] - crops[:, 2:3] / 2 - 1e-9) & (x <= crops[:, :1] + crops[:, 2:3] / 2 + 1e-9))
 
