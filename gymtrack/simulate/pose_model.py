@@ -134,7 +134,7 @@ def _check(rig: Rig, joints3d, person_id, frames, boxes: Detections):
     if np.any(np.diff(frames) <= 0):
         raise InputError("frames must be strictly increasing", field="frames")
     t_idx = np.clip(np.searchsorted(frames, boxes.frame), 0, max(frames.size - 1, 0))
-    bad = (frames.size == 0) | (frames[t_idx] != boxes.frame) if frames.size else np.ones(len(boxes), bool)
+    bad = frames[t_idx] != boxes.frame if frames.size else np.ones(len(boxes), bool)
     if np.any(bad):
         k = int(np.flatnonzero(bad)[0])
         raise InputError(f"{int(bad.sum())} boxes are at frames without 3D joints, e.g. frame {int(boxes.frame[k])} "
