@@ -109,3 +109,28 @@ def pose(
     write_poses_3d(Path(out) / "poses_3d.csv", res.poses3d)
     console.print(pose_summary_table(res.summary()))
     console.print(f"wrote [bold]{Path(out) / 'keypoints'}[/] and [bold]{Path(out) / 'poses_3d.csv'}[/]")
+
+
+def demo_pose_table(sim, results: dict, perf_frames: np.ndarray, seed: int = 0) -> Table:
+    """``gymtrack demo``'s pose lines: the target's pose error from each method's b_buf boxes.
+
+    sim: the SimulatedRoutine (its ``keypoints`` (P, T, 17, 3) are the ground truth); results:
+    mode -> TrackResult; the simulated pose model runs on each result's ``target_boxes`` with the
+    same seed, the pose stage lifts the target (robust), errors on ``perf_frames``.
+    """
+    from gymtrack.eval.pose_metrics import target_pose_error
+    from gymtrack.pose.stage import lift_poses
+    from gymtrack.simulate.pose_model import simulate_pose_model
+    from gymtrack.skeletons import COCO17
+
+    t = Table(title="Target's 3D pose vs ground truth (simulated pose model in each method's b_buf, robust lifting)",
+              title_justify="left")
+    for col in ("mode", "MPJPE", "PA-MPJPE", "PCK@150mm", "frames with a pose"):
+        t.add_column(col, justify="right" if col != "mode" else "left")
+    k = int(np.flatnonzero(sim.person_id == sim.target_id)[0])
+    for mode, res in results.items():
+        poses = simulate_pose_model(sim.rig, sim.keypoints, sim.person_id, sim.frames, res.target_boxes, seed=seed)
+        p = lift_poses(res, sim.rig, sim.scene, poses).poses3d
+        e = target_pose_error(p.frame, p.xyz, p.skeleton.joints, sim.frames, sim.keypoints[k], COCO17.joints, perf_frames)
+        t.add_row(mode, f"{e.mpjpe:.0f} mm", f"{e.pa_mpjpe:.0f} mm", f"{e.pck:.0%}", f"{e.pose_share:.0%}")
+    return t
