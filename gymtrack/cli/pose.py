@@ -32,9 +32,9 @@ def simulated_model_poses(routine, result, all_tracks: bool, seed: int = 0):
     The target's b_buf boxes; with ``all_tracks`` also every track's per-view box where the
     target has no b_buf (same frame, view and track). Returns a Poses2D (track ids set).
     """
-    from gymtrack.detections import Detections
     from gymtrack.errors import InputError
     from gymtrack.formats.gt_keypoints import read_keypoints_3d
+    from gymtrack.pose.stage import pose_model_boxes
     from gymtrack.simulate.pose_model import simulate_pose_model
 
     path = routine.gt.get("keypoints_3d")
@@ -42,12 +42,7 @@ def simulated_model_poses(routine, result, all_tracks: bool, seed: int = 0):
         raise InputError("--simulated-model needs a simulated routine with gt/keypoints_3d.csv",
                          source=Path(routine.path) / "gt" / "keypoints_3d.csv")
     frames, person_id, joints = read_keypoints_3d(path)
-    boxes = result.target_boxes
-    if all_tracks:
-        b, n = result.boxes, len(result.camera_names)
-        tb = result.target_boxes
-        key = lambda d: (d.frame * n + d.camera.astype(np.int64)) * (1 << 20) + d.track_id  # noqa: E731
-        boxes = Detections.concat([tb, b.select(~np.isin(key(b), key(tb)))])
+    boxes = pose_model_boxes(result, all_tracks)
     return simulate_pose_model(routine.rig, joints, person_id, frames, boxes, seed=seed)
 
 

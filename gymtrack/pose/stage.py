@@ -39,7 +39,7 @@ from .assign import Assignment, assign_poses
 from .lift import LiftOptions, lift_track
 
 __all__ = ["PoseStageResult", "Sequence3D", "nearest_plane_normal", "target_sequence", "track_sequences",
-           "dense_keypoints", "lift_poses", "read_track_result"]
+           "dense_keypoints", "lift_poses", "pose_model_boxes", "read_track_result"]
 
 LIFT_METHODS: tuple[str, ...] = ("dlt", "robust")
 
@@ -196,6 +196,21 @@ def lift_poses(result: TrackResult, rig: Rig, scene: Scene, poses: Poses2D, all_
     counts = {"read": len(poses), **{k: v for k, v in a.counts.items() if k != "total"},
               "used": int(used.sum()), "duplicate": int((dup & ~used).sum()), "not_lifted": int((~used & ~dup).sum())}
     return PoseStageResult(p3, a, counts, time.perf_counter() - t0)
+
+
+def pose_model_boxes(result: TrackResult, all_tracks: bool = False) -> Detections:
+    """The crops a top-down pose model runs on: the target's b_buf boxes; with ``all_tracks`` also
+    every track's per-view box where there is no b_buf of that track (same frame and view)."""
+    tb = result.target_boxes
+    if not all_tracks:
+        return tb
+    b = result.boxes
+    n = max(len(b.camera_names), 1)
+
+    def key(d: Detections) -> np.ndarray:
+        return (d.frame * n + d.camera.astype(np.int64)) * (1 << 24) + d.track_id
+
+    return Detections.concat([tb, b.select(~np.isin(key(b), key(tb)))]).sorted()
 
 
 def _frame_range(result: TrackResult) -> tuple[int, int] | None:
