@@ -36,11 +36,10 @@ class Consensus:
     tie: np.ndarray
 
 
-def _view_errors(P, X, u, v, ok, gate):
-    """(C, J, T) reprojection error / gate, capped at 1, and where it is defined (C, J, T)."""
-    C, J, T = u.shape
-    pu, pv = project(P, X)
-    r = np.hypot(pu.reshape(C, J, T) - u, pv.reshape(C, J, T) - v) / gate[:, None, :]
+def _view_errors(pu, pv, u, v, ok, gate):
+    """(C, J, T) reprojection error / gate, capped at 1, and where it is defined (C, J, T), of
+    the projections pu, pv (C, J, T)."""
+    r = np.hypot(pu - u, pv - v) / gate[:, None, :]
     m = ok & np.isfinite(r)
     return np.where(m, np.minimum(r, 1.0), 0.0), m
 
@@ -69,8 +68,9 @@ def view_consensus(P: np.ndarray, u: np.ndarray, v: np.ndarray, ok: np.ndarray, 
                 w = np.stack([ok[a], okb]).reshape(2, J * T).astype(np.float64)
                 X = weighted_dlt(P[pair], np.stack([u[a], ub]).reshape(2, -1), np.stack([v[a], vb]).reshape(2, -1), w)
                 n3d = np.isfinite(X[0]).reshape(J, T).sum(axis=0)
-                eo, mo = _view_errors(P, X, u, v, ok, gate)
-                es, ms = _view_errors(P, X, us, vs, oks, gate)
+                pu, pv = (p.reshape(C, J, T) for p in project(P, X))
+                eo, mo = _view_errors(pu, pv, u, v, ok, gate)
+                es, ms = _view_errors(pu, pv, us, vs, oks, gate)
                 # the labelling from the lateral joints only: central joints read the same both ways
                 lat_o = (eo * mo)[:, lateral].sum(1) / np.maximum(mo[:, lateral].sum(1), 1)
                 lat_s = (es * ms)[:, lateral].sum(1) / np.maximum(ms[:, lateral].sum(1), 1)

@@ -7,7 +7,8 @@ salto's flight, a swing's arc over a few frames -- so fast but consistent motion
 blurred, while independent per-frame noise shrinks (to ~0.58 of its standard deviation for
 h = 3). Before the fit, each sample is compared with the same fit *without* it (leave-one-out);
 a sample farther than ``outlier_m`` from that prediction is an outlier (a swap or wrong body the
-consensus missed) and is replaced by the prediction from its neighbours. Missing samples stay
+consensus missed) and is replaced by the fit of its neighbours; the worst sample of a window
+goes first (an outlier also pulls its neighbours' predictions), in up to three passes. Missing samples stay
 missing: nothing is invented across gaps.
 
 Shapes: X (T, J, 3) metres, weights (T, J) >= 0 (0 = missing).
@@ -16,7 +17,7 @@ Shapes: X (T, J, 3) metres, weights (T, J) >= 0 (0 = missing).
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import correlate1d
+from scipy.ndimage import correlate1d, maximum_filter1d
 
 
 def _moments(X: np.ndarray, w: np.ndarray, h: int) -> tuple[list, list]:
@@ -53,15 +54,21 @@ def smooth_track(X: np.ndarray, weights: np.ndarray, half_window: int, outlier_m
     w = np.where(found, np.maximum(weights, 1e-3), 0.0)
     Xz = np.where(found[..., None], X, 0.0)
     count = correlate1d(found.astype(np.float64), np.ones(2 * half_window + 1), axis=0, mode="constant")
-    S, B = _moments(Xz, w, half_window)
-    # leave-one-out: the centre sample only enters the zeroth moments (tau^k = 0 for k >= 1)
-    loo = _fit_centre([S[0] - w] + S[1:], [B[0] - w[..., None] * Xz] + B[1:])
-    dist = np.linalg.norm(X - loo, axis=2)
-    outlier = found & (count - 1 >= min_samples) & (dist > outlier_m)
-    if outlier.any():
-        w = np.where(outlier, 0.0, w)
-        S, B = _moments(np.where(outlier[..., None], 0.0, Xz), w, half_window)
-    fit = _fit_centre(S, B)
+    outlier = np.zeros_like(found)
+    for _ in range(3):  # an outlier also pulls its neighbours' predictions: take the worst of a window first
+        S, B = _moments(Xz, w, half_window)
+        # leave-one-out: the centre sample only enters the zeroth moments (tau^k = 0 for k >= 1)
+        loo = _fit_centre([S[0] - w] + S[1:], [B[0] - w[..., None] * Xz] + B[1:])
+        dist = np.where(found & ~outlier, np.linalg.norm(X - loo, axis=2), 0.0)
+        dist = np.nan_to_num(dist, nan=0.0)
+        worst = dist >= maximum_filter1d(dist, 2 * half_window + 1, axis=0, mode="constant")
+        new = (count - outlier_count(outlier, half_window) - 1 >= min_samples) & (dist > outlier_m) & worst
+        if not new.any():
+            break
+        outlier |= new
+        w = np.where(new, 0.0, w)
+        Xz = np.where(new[..., None], 0.0, Xz)
+    fit = _fit_centre(S, B) if not outlier.any() else _fit_centre(*_moments(Xz, w, half_window))
     usable = found & (count - outlier_count(outlier, half_window) >= min_samples) & np.isfinite(fit).all(axis=2)
     out = np.where(usable[..., None], fit, X)
     return out, outlier & usable
