@@ -37,7 +37,8 @@ BODY25_JOINTS = (
     "right_big_toe", "right_small_toe", "right_heel",
 )
 HALPE26_JOINTS = COCO17_JOINTS + (
-    "head", "neck", "hip", "left_big_toe", "right_big_toe", "left_small_toe", "right_small_toe", "left_heel", "right_heel",
+    "head", "neck", "hip", "left_big_toe", "right_big_toe", "left_small_toe", "right_small_toe",
+    "left_heel", "right_heel",
 )
 
 # Segments by name, written for the left side; the right side is derived by mirroring. The face

@@ -112,7 +112,8 @@ def _bbox(v: Any, src: Path, field: str) -> np.ndarray:
     return b
 
 
-def _load_json(path: Path) -> Any:
+def load_json(path: Path) -> Any:
+    """The parsed JSON of ``path``; unreadable or invalid JSON raises InputError naming file and line."""
     text = read_text(path)
     try:
         return json.loads(text)
@@ -136,7 +137,8 @@ def _native_skeleton(doc: dict, path: Path) -> Skeleton:
         # a known joint list is that skeleton, so files of the same model agree
         return next((s for s in SKELETONS.values() if s.joints == sk.joints), sk)
     if name is None:
-        raise InputError("missing: give 'skeleton' (coco17, body25, halpe26) or 'joints'", source=path, field="skeleton")
+        raise InputError("missing: give 'skeleton' (coco17, body25, halpe26) or 'joints'",
+                         source=path, field="skeleton")
     try:
         return get_skeleton(name)
     except InputError as e:
@@ -214,7 +216,7 @@ def _read_openpose(folder: Path, camera_index: int, camera_names: Sequence[str])
         if m is None or not path.is_file():
             raise InputError("not an OpenPose file '*_<12-digit frame>_keypoints.json'", source=path)
         frame = int(m.group(1))
-        doc = _load_json(path)
+        doc = load_json(path)
         people = doc.get("people") if isinstance(doc, dict) else None
         if not isinstance(people, list):
             raise InputError("must be an object with a list 'people'", source=path, field="people")
@@ -234,7 +236,7 @@ def _read_file(path: Path, camera_index: int, camera_names: Sequence[str],
     sk = get_skeleton(skeleton) if isinstance(skeleton, str) else skeleton
     if path.is_dir():
         return _read_openpose(path, camera_index, camera_names), True
-    doc = _load_json(path)
+    doc = load_json(path)
     if isinstance(doc, list):
         return _read_coco(doc, path, camera_index, camera_names, sk)
     if isinstance(doc, dict):
@@ -263,6 +265,8 @@ def read_keypoints(path_or_folder: str | Path, camera_names: Sequence[str],
     """
     root = Path(path_or_folder)
     camera_names = tuple(camera_names)
+    if not camera_names:
+        raise InputError("no camera names given", source=root)
     if not root.exists():
         raise InputError("keypoints folder not found", source=root)
     if root.is_file():
@@ -273,7 +277,8 @@ def read_keypoints(path_or_folder: str | Path, camera_names: Sequence[str],
     for c, name in enumerate(camera_names):
         file, folder = root / f"{name}.json", root / name
         if file.is_file() and folder.is_dir():
-            raise InputError(f"camera {name!r} has both {file.name} and an OpenPose folder {name}/; keep one", source=root)
+            raise InputError(f"camera {name!r} has both {file.name} and an OpenPose folder {name}/; keep one",
+                             source=root)
         if not file.is_file() and not folder.is_dir():
             raise InputError(f"no keypoints for camera {name!r}: expected {name}.json or an OpenPose folder {name}/",
                              source=root)
