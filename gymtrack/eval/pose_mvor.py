@@ -41,22 +41,20 @@ def lift_mvor(mv, detector: str = "openpose", frames: np.ndarray | None = None,
     """
     from ..pose.lift import lift_track
 
-    det = mv.detections[detector].mapped
+    dk = mv.detected_keypoints(detector)  # (F, V, P, J, 3)
     F, P = mv.person_id.shape
-    V, J = len(mv.rig), len(mv.skeleton.joints)
+    J = len(mv.skeleton.joints)
     sel = np.arange(F) if frames is None else np.asarray(frames, np.int64)
-    kp = np.full((F, P, V, J, 3), np.nan)
-    kp[..., 2] = 0.0
-    ok = det.track_id >= 0
-    kp[det.frame[ok], det.track_id[ok], det.camera[ok]] = det.keypoints[ok]
     want = np.zeros((F, P), bool)
     want[sel] = mv.has3d[sel]
     f_idx, p_idx = np.nonzero(want)
-    out = {"gt": mv.joints3d[f_idx, p_idx], "views": (kp[f_idx, p_idx, :, :, 2] > 0).any(-1).sum(-1)}
+    kp = dk[f_idx, :, p_idx]  # (K, V, J, 3)
+    kp[..., 2] = np.clip(kp[..., 2], 0.0, 1.0)  # OpenPose's confidences reach 1.02
+    out = {"gt": mv.joints3d[f_idx, p_idx], "views": (kp[..., 2] > 0).any(-1).sum(-1)}
     for m in methods:
         est = np.full((f_idx.size, J, 3), np.nan)
-        for k, (f, p) in enumerate(zip(f_idx, p_idx)):
-            est[k] = lift_track(mv.rig, kp[f, p][None], mv.skeleton, method=m).xyz[0]
+        for k in range(f_idx.size):
+            est[k] = lift_track(mv.rig, kp[k][None], mv.skeleton, method=m).xyz[0]
         out[m] = est
     return out
 
