@@ -118,3 +118,18 @@ def test_cli_pose_clear_errors(tracked, tmp_path):
     assert r.exit_code != 0 and "no 2D keypoints" in str(r.exception or r.output)
     r = runner.invoke(app, ["pose", str(routine), str(tmp_path / "out"), "--lift", "magic"])
     assert r.exit_code != 0 and "unknown lifting method" in str(r.exception or r.output)
+
+
+def test_cli_pose_simulated_model(tracked, tmp_path):
+    sim, res = tracked
+    routine, out = tmp_path / "routine", tmp_path / "out"
+    sim.write(routine)
+    write_outputs(res, out)
+    r = CliRunner().invoke(app, ["pose", str(routine), str(out), "--simulated-model", "--lift", "dlt"])
+    assert r.exit_code == 0, r.output
+    p3 = read_poses_3d(out / "poses_3d.csv")
+    # the target only: one row per frame, the target's track at that frame
+    assert np.unique(p3.frame).size == len(p3) > 0.8 * len(res.target)
+    assert (p3.how[np.isfinite(p3.xyz).all(-1)] == 1).all()  # dlt: triangulated only
+    back = read_keypoints(out / "keypoints", sim.rig.names)
+    assert len(back) == len(res.target_boxes)  # one pose per b_buf crop
