@@ -133,3 +133,11 @@ def test_cli_pose_simulated_model(tracked, tmp_path):
     assert (p3.how[np.isfinite(p3.xyz).all(-1)] == 1).all()  # dlt: triangulated only
     back = read_keypoints(out / "keypoints", sim.rig.names)
     assert len(back) == len(res.target_boxes)  # one pose per b_buf crop
+
+
+def test_demo_prints_the_pose_error_of_both_methods():
+    r = CliRunner().invoke(app, ["demo", "--seconds", "10"])
+    assert r.exit_code == 0, r.output
+    block = r.output[r.output.index("Target's 3D pose"):]
+    assert "MPJPE" in block and "PCK" in block and "cascade" in block and "triangulation" in block
+    assert block.count(" mm") >= 4
