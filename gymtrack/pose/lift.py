@@ -90,7 +90,7 @@ class LiftOptions:
     bone_iterations: int = 3
     bone_weight: float = 0.7
     bone_min_frames: int = 5
-    smooth_half_window: int = 3
+    smooth_half_window: int = 2
     smooth_outlier_m: float = 0.15
     plane_score_factor: float = 0.5
 
