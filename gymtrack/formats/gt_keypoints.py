@@ -12,6 +12,7 @@ joints (P, T, 17, 3) with NaN where a row is absent.
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -23,12 +24,38 @@ from .textfile import read_text
 HEADER = ("frame", "person_id", "joint", "x", "y", "z")
 
 
-def _rows(path: Path) -> tuple[np.ndarray, np.ndarray]:
-    """(R, 6) string fields and (R,) 1-based line numbers; the header must come first."""
-    lines = read_text(path).splitlines()
-    if not lines or tuple(c.strip() for c in lines[0].split(",")) != HEADER:
-        got = lines[0] if lines else "an empty file"
-        raise InputError(f"expected the header {','.join(HEADER)!r}, got {got!r}", source=path, line=1)
+_CODE = 1_000_000  # joint names become _CODE + index in the fast path
+
+
+def _fast(text: str) -> np.ndarray | None:
+    """(R, 6) float rows of a well-formed file (joint column = _CODE + joint index) parsed in C,
+    or None when anything is unusual (then the checking path finds and names the problem)."""
+    body = text.split("\n", 1)[1] if "\n" in text else ""
+    for i, name in sorted(enumerate(COCO17_JOINTS), key=lambda x: -len(x[1])):
+        body = body.replace(f",{name},", f",{_CODE + i},")
+    body = body.strip()
+    if not body:
+        return None
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        try:
+            v = np.fromstring(body.replace("\n", ","), sep=",")
+        except (ValueError, DeprecationWarning):
+            return None
+    n = body.count("\n") + 1
+    if v.size != 6 * n:
+        return None
+    v = v.reshape(n, 6)
+    j = v[:, 2] - _CODE
+    whole = np.isfinite(v[:, :2]).all() and np.all(v[:, :2] == np.round(v[:, :2]))
+    if not whole or np.any((j < 0) | (j > 16) | (j != np.round(j))) or np.isinf(v[:, 3:]).any():
+        return None
+    v[:, 2] = j
+    return v
+
+
+def _rows(path: Path, lines: list[str]) -> tuple[np.ndarray, np.ndarray]:
+    """(R, 6) string fields and (R,) 1-based line numbers of ``lines`` after the header."""
     keep = [k for k in range(1, len(lines)) if lines[k].strip()]
     parts = [lines[k].split(",") for k in keep]
     bad = [i for i, p in enumerate(parts) if len(p) != 6]
@@ -61,6 +88,23 @@ def _numbers(col: np.ndarray, lines: np.ndarray, name: str, path: Path, integer:
     return v.astype(np.int64) if integer else v
 
 
+def _checked(path: Path, lines: list[str]):
+    """The slow path: every field checked, the first bad one named by line."""
+    f, ln = _rows(path, lines)
+    frame = _numbers(f[:, 0], ln, "frame", path, True)
+    pid = _numbers(f[:, 1], ln, "person_id", path, True)
+    xyz = np.column_stack([_numbers(f[:, k], ln, n, path, False) for k, n in ((3, "x"), (4, "y"), (5, "z"))]).reshape(-1, 3)
+    names = np.asarray(COCO17_JOINTS)
+    order = np.argsort(names)
+    pos = np.clip(np.searchsorted(names[order], f[:, 2]), 0, names.size - 1)
+    ok = names[order][pos] == f[:, 2]
+    if not np.all(ok):
+        i = int(np.flatnonzero(~ok)[0])
+        raise InputError(f"joint must be a COCO-17 joint name (nose, left_eye, ..., right_ankle), got {f[i, 2]!r}",
+                         source=path, line=int(ln[i]), field="joint")
+    return frame, pid, order[pos], xyz, ln
+
+
 def read_keypoints_3d(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Read ``gt/keypoints_3d.csv``.
 
@@ -72,27 +116,25 @@ def read_keypoints_3d(path: str | Path) -> tuple[np.ndarray, np.ndarray, np.ndar
     coordinate that is not a number, or a (frame, person, joint) given twice.
     """
     path = Path(path)
-    f, lines = _rows(path)
-    frame = _numbers(f[:, 0], lines, "frame", path, True)
-    pid = _numbers(f[:, 1], lines, "person_id", path, True)
-    xyz = np.column_stack([_numbers(f[:, k], lines, n, path, False) for k, n in ((3, "x"), (4, "y"), (5, "z"))]).reshape(-1, 3)
-    names = np.asarray(COCO17_JOINTS)
-    order = np.argsort(names)
-    pos = np.clip(np.searchsorted(names[order], f[:, 2]), 0, names.size - 1)
-    ok = names[order][pos] == f[:, 2]
-    if not np.all(ok):
-        i = int(np.flatnonzero(~ok)[0])
-        raise InputError(f"joint must be a COCO-17 joint name (nose, left_eye, ..., right_ankle), got {f[i, 2]!r}",
-                         source=path, line=int(lines[i]), field="joint")
-    ji = order[pos]
+    text = read_text(path)
+    first = text.split("\n", 1)[0]
+    if tuple(c.strip() for c in first.split(",")) != HEADER:
+        raise InputError(f"expected the header {','.join(HEADER)!r}, got {first or 'an empty file'!r}", source=path, line=1)
+    v = _fast(text)
+    if v is not None:
+        frame, pid, ji, xyz = v[:, 0].astype(np.int64), v[:, 1].astype(np.int64), v[:, 2].astype(np.int64), v[:, 3:]
+        lines = np.arange(2, len(v) + 2)
+    else:
+        frame, pid, ji, xyz, lines = _checked(path, text.splitlines())
     frames, ti = np.unique(frame, return_inverse=True)
+    names = np.asarray(COCO17_JOINTS)
     persons, pi = np.unique(pid, return_inverse=True)
     flat = (pi * frames.size + ti) * 17 + ji
     u, first, count = np.unique(flat, return_index=True, return_counts=True)
     if np.any(count > 1):
         k = u[np.flatnonzero(count > 1)[0]]
         dup = np.flatnonzero(flat == k)
-        raise InputError(f"frame {frame[dup[0]]}, person {pid[dup[0]]}, joint {f[dup[0], 2]} is given twice "
+        raise InputError(f"frame {frame[dup[0]]}, person {pid[dup[0]]}, joint {names[ji[dup[0]]]} is given twice "
                          f"(lines {lines[dup[0]]} and {lines[dup[1]]})", source=path, line=int(lines[dup[1]]))
     joints = np.full((persons.size, frames.size, 17, 3), np.nan)
     joints.reshape(-1, 3)[flat] = xyz

@@ -34,7 +34,8 @@ Per crop (vectorised over crops; the geometry is in :mod:`.pose_view`):
 5. **Left/right swaps** of the whole body or of the legs (the "inversion" error of Ronchi and
    Perona, ICCV 2017), more likely seen from behind and when rotated.
 6. **The crop border**: a heatmap model answers inside its crop: a joint outside is clamped to
-   the border with a low score.
+   the border with a low score; a joint inside the crop but off the image (the padding) gets
+   the same low score.
 
 Scores are heatmap-peak-like, in [0, 1]: ~0.88 visible, ~0.45 occluded, ~0.12 outside the crop,
 lower when the pose is rotated and when that joint's error is large. Random numbers are keyed by
@@ -133,7 +134,7 @@ def _check(rig: Rig, joints3d, person_id, frames, boxes: Detections):
     if np.any(np.diff(frames) <= 0):
         raise InputError("frames must be strictly increasing", field="frames")
     t_idx = np.clip(np.searchsorted(frames, boxes.frame), 0, max(frames.size - 1, 0))
-    bad = (frames.size == 0) | (frames[t_idx] != boxes.frame) if frames.size else np.ones(len(boxes), bool)
+    bad = frames[t_idx] != boxes.frame if frames.size else np.ones(len(boxes), bool)
     if np.any(bad):
         k = int(np.flatnonzero(bad)[0])
         raise InputError(f"{int(bad.sum())} boxes are at frames without 3D joints, e.g. frame {int(boxes.frame[k])} "
@@ -213,7 +214,9 @@ def run_pose_model(rig: Rig, joints3d: np.ndarray, person_id: np.ndarray, frames
     lo, hi = c[:, None, :2], c[:, None, 2:]
     outside = np.any((meas < lo) | (meas > hi), axis=-1)
     meas = np.clip(meas, lo, hi)
-    score = np.where(outside, p.score_outside + p.score_sd * V.normals(kh, 3, 17), score)
+    size = np.array([c_.size for c_ in rig], float)[cam[h]][:, None, :]
+    off_image = np.any((uv < 0) | (uv > size), axis=-1)  # in the crop's padding: a guess
+    score = np.where(outside | off_image, p.score_outside + p.score_sd * V.normals(kh, 3, 17), score)
     missing = ~np.all(np.isfinite(meas), axis=-1)  # a joint the ground truth lacks
     kp = np.full((N, 17, 3), np.nan)
     kp[h, :, :2] = np.where(missing[..., None], np.nan, meas)

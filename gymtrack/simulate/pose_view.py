@@ -7,8 +7,8 @@ here is per crop and vectorised over the N crops (no loop per joint):
 
 * :func:`project_people`: (N, P, 17, 2) pixels and (N, P, 17) depths of every person in the view
   and frame of each crop;
-* :func:`choose_person`: the person a crop holds most (overlap of the projected body with the
-  crop), the person a top-down model locks on to;
+* :func:`choose_person`: the person a crop holds most (the projected body's visible overlap with
+  the crop and its centring), the person a top-down model locks on to;
 * :func:`self_occluded`: (N, 17) joints whose line of sight passes through the body's own
   capsules (torso, limbs, head) before reaching them;
 * :func:`view_of_body`: (N,) how much the body is seen from behind and how far it is rotated
@@ -90,36 +90,41 @@ def _inter(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return w * h
 
 
-def choose_person(uv: np.ndarray, depth: np.ndarray, crop: np.ndarray, grow: float, min_overlap: float) -> tuple[np.ndarray, np.ndarray]:
+def choose_person(uv: np.ndarray, depth: np.ndarray, crop: np.ndarray, grow: float,
+                  min_overlap: float) -> tuple[np.ndarray, np.ndarray]:
     """The person each crop holds most.
 
-    uv (N, P, 17, 2), depth (N, P, 17), crop (N, 4) xyxy. The overlap of person p with crop n is
-    ``inter^2 / (area_body * area_crop)``: the share of the body inside the crop times the share
-    of the crop the body fills (a top-down model locks on to the body that is both whole and
-    large in its crop), times ``exp(-2 d^2 / area_crop)`` with ``d`` the distance of the body's
-    centre from the crop's; ties go to the nearer person. Returns person row (N,) (-1 when no body
-    reaches ``min_overlap``) and that overlap (N,).
+    uv (N, P, 17, 2), depth (N, P, 17), crop (N, 4) xyxy. Person p's hold on crop n is
+    ``visible * fill^0.25 * exp(-8 d^2 / area_crop)``: ``visible`` the share of the body's box
+    inside the crop and not behind a nearer person's box (85 % of an overlap hides, as in
+    :mod:`.detector`), ``fill`` the share of the crop the body fills (a tiny far body counts
+    less), ``d`` the distance of the body's centre from the crop's (a top-down crop is built
+    around a person: the model locks on to the body in its middle). Ties go to the nearer
+    person. Returns person row (N,) (-1 when no hold reaches ``min_overlap``) and the hold (N,).
     """
+    N, P = uv.shape[:2]
+    if P == 0:
+        return np.full(N, -1, np.int64), np.zeros(N)
     bb = body_boxes(uv, grow)  # (N, P, 4)
     area_b = (bb[..., 2] - bb[..., 0]) * (bb[..., 3] - bb[..., 1])
     area_c = (crop[:, 2] - crop[:, 0]) * (crop[:, 3] - crop[:, 1])
     inter = _inter(bb, crop[:, None, :])
+    near = np.nan_to_num(depth.mean(axis=-1), nan=np.inf)  # (N, P)
     with np.errstate(invalid="ignore", divide="ignore"):
-        ov = inter ** 2 / (area_b * area_c[:, None])
-    # a top-down model centres on the middle of its crop: an off-centre body counts less
-    d = 0.5 * (bb[..., :2] + bb[..., 2:]) - 0.5 * (crop[:, None, :2] + crop[:, None, 2:])
-    ov = ov * np.exp(-2.0 * (d ** 2).sum(-1) / np.maximum(area_c, 1e-9)[:, None])
-    ov = np.where(np.isfinite(ov), ov, 0.0)
-    near = np.nan_to_num(depth.mean(axis=-1), nan=np.inf)
-    key = ov - 1e-9 * np.minimum(near, 1e6)  # nearer wins an exact tie
-    if ov.shape[1] == 0:
-        return np.full(len(crop), -1, np.int64), np.zeros(len(crop))
-    best = np.argmax(key, axis=1)
-    best_ov = ov[np.arange(len(crop)), best]
-    return np.where(best_ov >= min_overlap, best, -1).astype(np.int64), best_ov
+        share = inter / area_b
+        cover = _inter(bb[:, :, None], bb[:, None, :]) / area_b[:, :, None]  # [n, i, j]: j's box covers i's
+        nearer = near[:, None, :] < near[:, :, None] - 0.2
+        hidden = np.max(np.where(nearer, np.nan_to_num(cover), 0.0), axis=-1)
+        fill = np.minimum(inter / area_c[:, None], 1.0)
+        d = 0.5 * (bb[..., :2] + bb[..., 2:]) - 0.5 * (crop[:, None, :2] + crop[:, None, 2:])
+        hold = share * (1 - 0.85 * np.clip(hidden, 0, 1)) * fill ** 0.25 * np.exp(-8.0 * (d ** 2).sum(-1) / area_c[:, None])
+    hold = np.where(np.isfinite(hold), hold, 0.0)
+    best = np.argmax(hold - 1e-9 * np.minimum(near, 1e6), axis=1)  # nearer wins an exact tie
+    best_h = hold[np.arange(N), best]
+    return np.where(best_h >= min_overlap, best, -1).astype(np.int64), best_h
 
 
-def _closest_on_segments(p0, p1, q0, q1):
+def closest_on_segments(p0, p1, q0, q1):
     """Closest points of segments p0-p1 and q0-q1 (..., 3), broadcast: returns (s, t, distance)
     with s, t in [0, 1] the parameters along each."""
     d1, d2, r = p1 - p0, q1 - q0, p0 - q0
@@ -131,6 +136,7 @@ def _closest_on_segments(p0, p1, q0, q1):
     den = a * e - b * b
     with np.errstate(invalid="ignore", divide="ignore"):
         s = np.where(den > 1e-12, np.clip((b * f - c * e) / den, 0, 1), 0.0)
+        s = np.where(e > 1e-12, s, np.clip(-c / np.where(a > 1e-12, a, 1.0), 0, 1))  # q is a point (a sphere)
         t = np.where(e > 1e-12, (b * s + f) / e, 0.0)
         # t outside [0, 1]: clamp it and recompute s for the clamped t
         tc = np.clip(t, 0, 1)
@@ -158,7 +164,7 @@ def self_occluded(X: np.ndarray, centre: np.ndarray, margin: float = 0.5) -> np.
     rad = CAPSULES[:, 2][None] * H  # (N, K)
     p0 = np.broadcast_to(centre[:, None, None, :], (X.shape[0], 17, 1, 3))
     p1 = X[:, :, None, :]
-    s, _, dist = _closest_on_segments(p0, p1, A[:, None], Bc[:, None])  # (N, 17, K)
+    s, _, dist = closest_on_segments(p0, p1, A[:, None], Bc[:, None])  # (N, 17, K)
     L = np.linalg.norm(X - centre[:, None, :], axis=-1)[..., None]  # (N, 17, 1)
     blocks = (dist < rad[:, None, :]) & (s * L < L - margin * rad[:, None, :])
     own = (a_i[None, :] == np.arange(17)[:, None]) | (b_i[None, :] == np.arange(17)[:, None])  # (17, K)
