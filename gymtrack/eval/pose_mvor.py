@@ -119,7 +119,7 @@ def mvor_markdown(d: dict) -> str:
                      f(e.get("mpjpe_common_mm"))])
     return "\n".join(head + [
         f"MVOR (Srivastav et al., MICCAI-LABELS 2018, arXiv:1808.08180; CC BY-NC-SA 4.0): {d['persons']} persons with 3D "
-        f"ground truth ({d['persons_2_views']} with a {d['detector']} detection in at least 2 views), 10 upper-body joints. "
+        f"ground truth ({d['persons_2_views']} with a detection of {d['detector']} in at least 2 views), 10 upper-body joints. "
         "Detections linked to the nearest annotated person without a distance limit (the README's protocol); each "
         "person lifted on its own, no plane anchoring. MPJPE over the joints each method estimated; the last column "
         f"over the {d['robust'].get('joints_common', 0)} joints both estimated.", "",
