@@ -76,6 +76,8 @@ def benchmark(
     wildtrack: Optional[Path] = typer.Option(None, "--wildtrack", help="WILDTRACK folder for the real-data section (skipped with a note if absent; default: gymtrack.eval.config's, ../shared/data/wildtrack)"),
     no_wildtrack: bool = typer.Option(False, "--no-wildtrack", help="skip the real-data section"),
     no_mot: bool = typer.Option(False, "--no-mot", help="skip the all-people MOT metrics (faster)"),
+    no_pose: bool = typer.Option(False, "--no-pose", help="skip the target's 3D pose (Fig. 7 table, lifting ablation)"),
+    mvor: Optional[Path] = typer.Option(None, "--mvor", help="MVOR folder for the real-keypoints pose section (default: $GYMTRACK_MVOR or shared/data/mvor above the project; skipped with a note if absent)"),
 ) -> None:
     """Benchmark the tracker's modes, the MvPT-like baseline and the GT-association oracle (paper Tables 3, 5, 6)."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
@@ -102,7 +104,7 @@ def benchmark(
         def progress(done: int, total: int, name: str) -> None:
             bar.update(task, completed=done, description=name)
 
-        run = run_suite(specs, method_list, jobs=n_jobs, mot=not no_mot, progress=progress)
+        run = run_suite(specs, method_list, jobs=n_jobs, mot=not no_mot, progress=progress, pose=not no_pose)
     wt = None
     if not no_wildtrack:
         from gymtrack.eval.config import DEFAULT_CONFIG
@@ -113,8 +115,20 @@ def benchmark(
         wt = run_wildtrack(wildtrack, log=lambda s: console.print("  " + s))
         if not wt.get("available"):
             console.print(f"[yellow]{wt['note']}[/]")
-    files = write_benchmark(run, out, meta={"suite": str(suite), "methods": ", ".join(method_list)}, wildtrack=wt)
+    mv = None
+    if not no_pose:
+        from gymtrack.eval.pose_mvor import run_mvor_pose
+
+        console.print("MVOR real-keypoints pose section ...")
+        mv = run_mvor_pose(mvor, log=lambda s: console.print("  " + s))
+        if not mv.get("available"):
+            console.print(f"[yellow]{mv['note']}[/]")
+    files = write_benchmark(run, out, meta={"suite": str(suite), "methods": ", ".join(method_list)}, wildtrack=wt, mvor=mv)
     print_summary(run.rows)
+    if not no_pose:
+        from gymtrack.cli.pose import print_pose_claims
+
+        print_pose_claims(console, run.rows)
     failed = [r for r in run.rows if r.get("error")]
     if failed:
         console.print(f"[red]{len(failed)} runs failed[/] (listed in the report), e.g. {failed[0]['routine']} / "

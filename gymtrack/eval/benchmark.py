@@ -128,8 +128,12 @@ def evaluate_routine(result, gt: GroundTruth, scene: Scene, rig: Rig | None = No
 
 
 # ----------------------------------------------------------------------------- one routine
-def run_routine(spec: RoutineSpec, methods: Sequence[str], keep_trajectories: bool = False, mot: bool = True) -> dict:
+def run_routine(spec: RoutineSpec, methods: Sequence[str], keep_trajectories: bool = False, mot: bool = True,
+                pose: bool = True) -> dict:
     """Load a routine folder and its GT, run and evaluate every method (a worker task).
+
+    pose: also the target's 3D pose from each method's boxes (:mod:`.pose_bench`), when the
+    routine has ``gt/keypoints_3d.csv``.
 
     Returns ``{"rows": [...], "trajectories": {...} | None, "spec": ...}``; a method that raises
     gives a row with ``error`` set instead of stopping the benchmark.
@@ -140,7 +144,13 @@ def run_routine(spec: RoutineSpec, methods: Sequence[str], keep_trajectories: bo
     size = np.array([c.size for c in r.rig], dtype=np.float64)
     gt = load_ground_truth(spec.path, r.rig.names, image_size=size)
     rows, traj = [], {}
+    from .pose_bench import PoseGroundTruth, pose_columns
+
     base = {"routine": spec.name, "apparatus": spec.apparatus, "n_cam": spec.n_cam, "seed": spec.seed}
+    try:  # the pose part must not cost the tracking rows
+        pgt = PoseGroundTruth.load(spec.path, gt, r.scene.performance_space) if pose else None
+    except Exception as exc:
+        pgt, base["pose_error"] = None, f"{type(exc).__name__}: {exc}"
     if keep_trajectories:
         t = gt.target()
         traj["GT"] = (t.frame, t.xyz)
@@ -158,6 +168,8 @@ def run_routine(spec: RoutineSpec, methods: Sequence[str], keep_trajectories: bo
             row = {**base, "method": method, "frames": int(res.summary.get("frames", 0)), "seconds": sec,
                    **evaluate_routine(res, gt, r.scene, r.rig, mot=mot),
                    "target_switches": int(res.summary.get("target_switches", 0)), "error": "", **extra}
+            if pgt is not None:
+                row |= pose_columns(method, res, r.rig, r.scene, pgt, seed=spec.seed)
             if keep_trajectories:
                 traj[method] = (res.target.frame, res.target.xyz)
         except Exception as exc:  # one failing method must not lose the others' results
@@ -296,6 +308,7 @@ def run_suite(
     jobs: int | None = None,
     mot: bool = True,
     progress: Callable[[int, int, str], None] | None = None,
+    pose: bool = True,
 ) -> BenchmarkRun:
     """Run every method on every routine, routines in parallel processes.
 
@@ -311,12 +324,12 @@ def run_suite(
     results: list[dict] = []
     if jobs == 1 or len(specs) <= 1:
         for k, s in enumerate(specs):
-            results.append(run_routine(s, methods, s.name in want, mot))
+            results.append(run_routine(s, methods, s.name in want, mot, pose))
             if progress:
                 progress(k + 1, len(specs), s.name)
     else:
         with ProcessPoolExecutor(max_workers=min(jobs, len(specs))) as pool:
-            futs = {pool.submit(run_routine, s, list(methods), s.name in want, mot): s for s in specs}
+            futs = {pool.submit(run_routine, s, list(methods), s.name in want, mot, pose): s for s in specs}
             for k, fut in enumerate(as_completed(futs)):
                 s = futs[fut]
                 try:
@@ -335,9 +348,11 @@ def run_suite(
     return BenchmarkRun(rows, traj, list(specs), time.perf_counter() - t0, jobs)
 
 
-def write_benchmark(run: BenchmarkRun, out: str | Path, meta: dict | None = None, wildtrack: dict | None = None) -> dict[str, Path]:
-    """Write the report, tables, JSON and the Fig. 6 plots of a run under ``out``."""
-    from .render import plot_target_trajectories, write_report
+def write_benchmark(run: BenchmarkRun, out: str | Path, meta: dict | None = None, wildtrack: dict | None = None,
+                    mvor: dict | None = None) -> dict[str, Path]:
+    """Write the report, tables, JSON and the Fig. 6 plots of a run under ``out`` (with the pose section)."""
+    from .pose_bench import pose_markdown, pose_tables
+    from .render import plot_target_trajectories, write_csv, write_report
     from .wildtrack import wildtrack_markdown
 
     out = Path(out)
@@ -357,4 +372,7 @@ def write_benchmark(run: BenchmarkRun, out: str | Path, meta: dict | None = None
             break
     meta = {"routines": len(run.specs), "parallel jobs": run.jobs, "CPUs": os.cpu_count(), "wall seconds": round(run.seconds, 1),
             **(meta or {})}
-    return write_report(out, run.rows, meta, plots, wildtrack_markdown(wildtrack) if wildtrack else None, wildtrack)
+    extra = "\n\n".join(x for x in (pose_markdown(run.rows, mvor), wildtrack_markdown(wildtrack) if wildtrack else None) if x)
+    files = write_report(out, run.rows, meta, plots, extra, wildtrack)
+    files["pose"] = write_csv(out / "pose_fig7.csv", pose_tables(run.rows)["fig7"])
+    return files

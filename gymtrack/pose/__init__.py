@@ -9,6 +9,8 @@ eval and cli.
 * :mod:`.consensus`  per-frame view consensus and left/right swaps
 * :mod:`.anchor`     weak joints on the target's plane; bone lengths
 * :mod:`.smooth`     temporal smoothing that keeps flight phases sharp
+* :mod:`.assign`     2D poses without a track id -> the 3D track whose box they overlap
+* :mod:`.stage`      ``lift_poses``: a tracker result + 2D poses -> ``Poses3D`` (target or every track)
 """
 
 from .lift import METHODS, LiftOptions, Lifted, lift_track

@@ -1,0 +1,145 @@
+"""``gymtrack pose <routine> <out>``: the target's 3D pose from 2D keypoints in its boxes.
+
+Paper: Section III-D, last paragraph -- the expanded boxes ``b_buf`` are where a top-down pose
+model runs; the 3D pose is triangulated from its keypoints (:mod:`gymtrack.pose.stage`).
+
+Reads the track outputs in ``<out>`` (``gymtrack track <routine> --out <out>`` first) and 2D poses
+from ``<routine>/keypoints/`` (or ``--keypoints DIR``), or, for a simulated routine (one with
+``gt/keypoints_3d.csv``), runs the simulated pose model (``--simulated-model``) on the b_buf boxes
+in ``<out>/target_2d/`` (and every track's boxes in ``<out>/tracks_2d/`` with ``--all-tracks``).
+Writes ``<out>/keypoints/<camera>.json`` (every pose, with the track it was assigned to) and
+``<out>/poses_3d.csv``, and prints where every input pose went.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import numpy as np
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from gymtrack.cli import app
+
+console = Console()
+
+
+def simulated_model_poses(routine, result, all_tracks: bool, seed: int = 0):
+    """Run the simulated pose model on the track outputs' boxes of a simulated routine.
+
+    The target's b_buf boxes; with ``all_tracks`` also every track's per-view box where the
+    target has no b_buf (same frame, view and track). Returns a Poses2D (track ids set).
+    """
+    from gymtrack.errors import InputError
+    from gymtrack.formats.gt_keypoints import read_keypoints_3d
+    from gymtrack.pose.stage import pose_model_boxes
+    from gymtrack.simulate.pose_model import simulate_pose_model
+
+    path = routine.gt.get("keypoints_3d")
+    if path is None:
+        raise InputError("--simulated-model needs a simulated routine with gt/keypoints_3d.csv",
+                         source=Path(routine.path) / "gt" / "keypoints_3d.csv")
+    frames, person_id, joints = read_keypoints_3d(path)
+    boxes = pose_model_boxes(result, all_tracks)
+    return simulate_pose_model(routine.rig, joints, person_id, frames, boxes, seed=seed)
+
+
+def pose_summary_table(summary: dict, title: str = "Pose stage") -> Table:
+    """Where every input pose went, and what was lifted."""
+    t = Table(title=title, title_justify="left")
+    t.add_column("what")
+    t.add_column("value", justify="right")
+    rows = [
+        ("poses read", "read"), ("  with a track id already", "given"), ("  assigned to a track here", "assigned"),
+        ("  unassigned (no track box overlaps)", "unassigned"), ("  rejected: no joint found", "rejected_no_joints"),
+        ("  rejected: frame outside the track output", "rejected_frame"), ("assigned poses lifted", "used"),
+        ("  duplicates (same track, frame, view)", "duplicate"), ("  not lifted (track not lifted)", "not_lifted"),
+        ("frames with a 3D pose", "frames_with_pose"), ("tracks with a 3D pose", "tracks_with_pose"),
+        ("joints triangulated", "joints_triangulated"), ("joints on the plane only", "joints_plane"),
+        ("joints fused (rays + plane)", "joints_fused"),
+    ]
+    for label, key in rows:
+        if key in summary:
+            t.add_row(label, str(summary[key]))
+    return t
+
+
+@app.command()
+def pose(
+    routine: Path = typer.Argument(..., help="routine folder (cameras.yaml, scene.yaml, detections/, keypoints/ or gt/)"),
+    out: Path = typer.Argument(..., help="the track output folder of `gymtrack track`; poses are written into it"),
+    keypoints: Optional[Path] = typer.Option(None, "--keypoints", "-k", help="2D poses folder (default: ROUTINE/keypoints)"),
+    simulated_model: bool = typer.Option(False, "--simulated-model", help="run the simulated pose model on the boxes in OUT (needs ROUTINE/gt)"),
+    all_tracks: bool = typer.Option(False, "--all-tracks", help="lift every 3D track, not only the target"),
+    lift: str = typer.Option("robust", "--lift", help="dlt | robust"),
+    seed: int = typer.Option(0, "--seed", help="seed of the simulated pose model"),
+) -> None:
+    """Lift 2D keypoints in the tracker's boxes to the target's 3D pose (every track's with --all-tracks)."""
+    from gymtrack.errors import InputError
+    from gymtrack.formats.keypoints import read_keypoints, write_keypoints
+    from gymtrack.formats.poses3d import write_poses_3d
+    from gymtrack.formats.routine import load_routine
+    from gymtrack.pose.stage import LIFT_METHODS, lift_poses, read_track_result
+
+    if lift not in LIFT_METHODS:
+        raise InputError(f"unknown lifting method {lift!r}; choose one of {', '.join(LIFT_METHODS)}", field="--lift")
+    if simulated_model and keypoints is not None:
+        raise InputError("give either --keypoints or --simulated-model, not both", field="--keypoints")
+    r = load_routine(routine)
+    result = read_track_result(out, r.rig.names)
+    if simulated_model:
+        with console.status("running the simulated pose model on the boxes"):
+            poses = simulated_model_poses(r, result, all_tracks, seed)
+    else:
+        kdir = keypoints if keypoints is not None else Path(routine) / "keypoints"
+        if not kdir.exists():
+            raise InputError("no 2D keypoints: add ROUTINE/keypoints/<camera>.json, give --keypoints DIR, "
+                             "or use --simulated-model on a simulated routine", source=kdir)
+        poses = read_keypoints(kdir, r.rig.names)
+    with console.status(f"lifting ({lift})"):
+        res = lift_poses(result, r.rig, r.scene, poses, all_tracks=all_tracks, method=lift)
+    write_keypoints(Path(out) / "keypoints", res.poses2d)
+    write_poses_3d(Path(out) / "poses_3d.csv", res.poses3d)
+    console.print(pose_summary_table(res.summary()))
+    console.print(f"wrote [bold]{Path(out) / 'keypoints'}[/] and [bold]{Path(out) / 'poses_3d.csv'}[/]")
+
+
+def demo_pose_table(sim, results: dict, perf_frames: np.ndarray, seed: int = 0) -> Table:
+    """``gymtrack demo``'s pose lines: the target's pose error from each method's b_buf boxes.
+
+    sim: the SimulatedRoutine (its ``keypoints`` (P, T, 17, 3) are the ground truth); results:
+    mode -> TrackResult; the simulated pose model runs on each result's ``target_boxes`` with the
+    same seed, the pose stage lifts the target (robust), errors on ``perf_frames``.
+    """
+    from gymtrack.eval.pose_metrics import target_pose_error
+    from gymtrack.pose.stage import lift_poses
+    from gymtrack.simulate.pose_model import simulate_pose_model
+    from gymtrack.skeletons import COCO17
+
+    t = Table(title="Target's 3D pose vs ground truth (simulated pose model in each method's b_buf, robust lifting)",
+              title_justify="left")
+    for col in ("mode", "MPJPE", "PA-MPJPE", "PCK@150mm", "frames with a pose"):
+        t.add_column(col, justify="right" if col != "mode" else "left")
+    k = int(np.flatnonzero(sim.person_id == sim.target_id)[0])
+    for mode, res in results.items():
+        poses = simulate_pose_model(sim.rig, sim.keypoints, sim.person_id, sim.frames, res.target_boxes, seed=seed)
+        p = lift_poses(res, sim.rig, sim.scene, poses).poses3d
+        e = target_pose_error(p.frame, p.xyz, p.skeleton.joints, sim.frames, sim.keypoints[k], COCO17.joints, perf_frames)
+        t.add_row(mode, f"{e.mpjpe:.0f} mm", f"{e.pa_mpjpe:.0f} mm", f"{e.pck:.0%}", f"{e.pose_share:.0%}")
+    return t
+
+
+def print_pose_claims(con: Console, rows: list[dict]) -> None:
+    """The benchmark's pose targets (PASS / FAIL) as a rich table."""
+    from gymtrack.eval.pose_bench import pose_claims
+
+    tab = Table(title="Pose targets (MPJPE averaged over apparatus)", title_justify="left")
+    for col in ("target", "value", "result", "detail"):
+        tab.add_column(col)
+    colour = {"PASS": "green", "FAIL": "red"}
+    for c in pose_claims(rows):
+        tab.add_row(c.name, "-" if not np.isfinite(c.value) else f"{c.value:.2f}",
+                    f"[{colour.get(c.status, 'yellow')}]{c.status}[/]", c.detail)
+    con.print(tab)
