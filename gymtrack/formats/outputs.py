@@ -206,6 +206,7 @@ def read_outputs(out: str | Path, camera_names: Sequence[str]) -> OutputFolder:
     if not out.is_dir():
         raise InputError("output folder not found", source=out)
     names = tuple(camera_names)
+    tracks, target = _columns(read_tracks_3d(out / "tracks_3d.csv")), _columns(read_target_3d(out / "target_3d.csv"))
     boxes, extra1 = _read_boxes(out / "tracks_2d", names)
     target_boxes, extra2 = _read_boxes(out / "target_2d", names)
     summary: dict = {}
@@ -215,6 +216,4 @@ def read_outputs(out: str | Path, camera_names: Sequence[str]) -> OutputFolder:
             summary = json.loads(sp.read_text())
         except json.JSONDecodeError as exc:
             raise InputError(f"not valid JSON: {exc.msg}", source=sp, line=exc.lineno) from None
-    return OutputFolder(out, _columns(read_tracks_3d(out / "tracks_3d.csv")), boxes,
-                        _columns(read_target_3d(out / "target_3d.csv")), target_boxes, names, summary,
-                        tuple(extra1 + extra2))
+    return OutputFolder(out, tracks, boxes, target, target_boxes, names, summary, tuple(extra1 + extra2))
