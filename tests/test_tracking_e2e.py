@@ -21,7 +21,7 @@ simulate = pytest.importorskip("gymtrack.simulate", reason="the simulator (gymtr
 metrics = pytest.importorskip("gymtrack.eval.metrics", reason="gymtrack.eval.metrics is not available")
 
 SECONDS = 12
-WILDTRACK = Path(__file__).resolve().parents[2] / "shared" / "data" / "wildtrack"
+from shared_data import WILDTRACK, needs_wildtrack  # noqa: E402
 
 
 def target_errors(sim, mode):
@@ -81,7 +81,7 @@ def test_two_opposite_views_cascade_beats_triangulation(apparatus):
     assert out["cascade"].mean < 0.7 * out["triangulation"].mean  # ... and the cascade is clearly closer
 
 
-@pytest.mark.skipif(not (WILDTRACK / "annotations_positions").is_dir(), reason=f"WILDTRACK not found at {WILDTRACK}")
+@needs_wildtrack
 def test_wildtrack_positions_land_near_the_annotated_ground_positions():
     from gymtrack.formats.scene import scene_from_dict
     from gymtrack.formats.wildtrack import read_wildtrack_annotations, read_wildtrack_calibration

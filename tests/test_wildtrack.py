@@ -18,11 +18,9 @@ from gymtrack.formats.wildtrack import (
 )
 from gymtrack.geometry import Rig
 
-WILDTRACK = Path(__file__).resolve().parents[2] / "shared" / "data" / "wildtrack"
-needs_wildtrack = pytest.mark.skipif(
-    not (WILDTRACK / "calibrations").is_dir(),
-    reason=f"WILDTRACK data not found at {WILDTRACK} (shared/data/wildtrack beside the repository)",
-)
+from shared_data import WILDTRACK, needs_data  # noqa: E402
+
+needs_wildtrack = needs_data("wildtrack", "calibrations", "needs the WILDTRACK calibration")
 
 
 def _write_wildtrack_calibration(root: Path, rig: Rig) -> None:
