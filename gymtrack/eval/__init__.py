@@ -5,6 +5,7 @@
 * :mod:`.mvpt`       the frame-by-frame MvPT-like baseline
 * :mod:`.benchmark`  every method on every routine of a suite, in parallel processes
 * :mod:`.report`     Tables 3, 5, 6, the claims, report.md / CSV / JSON, Fig. 6 plots
+* :mod:`.score`      an output folder of ``gymtrack track`` scored against ``<routine>/gt/`` (``gymtrack eval``)
 * :mod:`.wildtrack`  the real-data section on WILDTRACK
 
 Only the light modules are imported here; the others pull in the tracker and are imported on use.
