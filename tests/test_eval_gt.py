@@ -1,4 +1,4 @@
-"""Ground-truth reading and the oracle matching of detections to GT persons (gymtrack.eval.gt)."""
+"""Ground-truth reading (gymtrack.formats.ground_truth) and the oracle matching of detections to GT persons (gymtrack.eval.gt)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,8 @@ import pytest
 
 from gymtrack.detections import Detections
 from gymtrack.errors import InputError, RoutineError
-from gymtrack.eval.gt import GroundTruth, box_iou, load_ground_truth, match_detections_to_gt, with_gt_ids
+from gymtrack.eval.gt import box_iou, match_detections_to_gt, with_gt_ids
+from gymtrack.formats.ground_truth import GroundTruth, load_ground_truth
 
 
 def _gt(boxes):

@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-
 import numpy as np
 import pytest
 
+from conftest import WILDTRACK, needs_wildtrack
 from gymtrack.detections import Detections
 from gymtrack.eval.wildtrack import WildtrackSetup, noisy_detections, run_wildtrack, wildtrack_markdown
 
-from shared_data import WILDTRACK as DATA, needs_wildtrack  # noqa: E402
+DATA = WILDTRACK
 
 
 def test_noisy_detections_counts_and_seed():

@@ -21,7 +21,7 @@ from gymtrack.tracking.plane_fallback import (best_plane_distance, candidate_dis
 from gymtrack.tracking.reconstruct import cluster_members, source_for
 from gymtrack.tracking.types import WindowTracklets, WindowTracklets3D
 from gymtrack.tracking.windows import fill_missing
-from test_tracking_synth import person_boxes, ring_rig
+from conftest import person_boxes, ring_rig, same
 
 W = 10
 THRESHOLD = 0.5
@@ -159,13 +159,6 @@ def scenario(rng, n_people=3, n_false=2, p_view=0.8, noise=2.0, nan_boxes=0):
     order = rng.permutation(K)
     return WindowTracklets(7, np.array(cams, np.int64)[order], np.arange(K, dtype=np.int64) + 100, filled[order],
                            obs[order], valid[order], np.full((K, W), -1, np.int64))
-
-
-def same(a, b, rtol=1e-9, atol=1e-9):
-    a, b = np.asarray(a), np.asarray(b)
-    assert a.shape == b.shape
-    assert np.array_equal(np.isnan(a), np.isnan(b))
-    np.testing.assert_allclose(a, b, rtol=rtol, atol=atol, equal_nan=True)
 
 
 def same_tracklets(a: WindowTracklets3D, b: WindowTracklets3D):

@@ -7,7 +7,7 @@ import pytest
 
 from gymtrack.apparatus import APPARATUS_NAMES, PRESETS, get_apparatus
 from gymtrack.errors import SceneError
-from gymtrack.formats.scene import Params, load_scene, preset_scene, scene_from_dict
+from gymtrack.formats.scene import Params, load_scene, preset_scene, save_scene, scene_from_dict
 
 
 def _bar_heights(name):
@@ -75,7 +75,7 @@ def test_file_overrides_preset(tmp_path):
 
 def test_round_trip(tmp_path):
     scene = preset_scene("vault")
-    scene.save(tmp_path / "scene.yaml")
+    save_scene(scene, tmp_path / "scene.yaml")
     assert load_scene(tmp_path / "scene.yaml") == scene
 
 

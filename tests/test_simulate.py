@@ -14,7 +14,7 @@ import pytest
 
 from gymtrack.apparatus import APPARATUS_NAMES, get_apparatus
 from gymtrack.errors import InputError
-from gymtrack.formats.scene import in_box
+from gymtrack.scene import in_box
 from gymtrack.geometry.triangulation import triangulate
 from gymtrack.geometry.views import line_of_sight_angle
 from gymtrack.simulate import body as B

@@ -10,8 +10,9 @@ import pytest
 from typer.testing import CliRunner
 
 from gymtrack.cli import app
-from gymtrack.eval.gt import load_ground_truth, read_persons_3d
+from gymtrack.formats.ground_truth import load_ground_truth, read_persons_3d
 from gymtrack.formats.calibration import read_native
+from gymtrack.formats.gt_keypoints import read_keypoints_3d
 from gymtrack.formats.motchallenge import parse_mot_table, read_gt_boxes
 from gymtrack.formats.routine import load_routine
 from gymtrack.formats.scene import load_scene
@@ -78,11 +79,15 @@ def test_routine_folder_reads_back(written):
         np.testing.assert_allclose(boxes.box[t], sim.gt_box[c, 0, boxes.frame[t] - 1], atol=0.01)
         assert np.array_equal(vis[t], sim.gt_visible[c, 0, boxes.frame[t] - 1])
     assert gt.target_id == 1 and len(gt.box_frame) > 0
-    # keypoints: the 17 COCO joints of the target, every frame
+    # keypoints: the 17 COCO joints of every person, every frame they exist, to the mm
     lines = (out / "gt" / "keypoints_3d.csv").read_text().splitlines()
-    assert lines[0] == "frame,person_id,joint,x,y,z" and len(lines) - 1 == 17 * sim.n_frames
+    assert lines[0] == "frame,person_id,joint,x,y,z" and len(lines) - 1 == 17 * int(sim.alive.sum())
     joints = [ln.split(",")[2] for ln in lines[1:18]]
     assert tuple(joints) == B.COCO_JOINTS
+    frames, pid, kp = read_keypoints_3d(out / "gt" / "keypoints_3d.csv")
+    assert np.array_equal(frames, sim.frames) and np.array_equal(pid, np.sort(sim.person_id))
+    ref = sim.keypoints[np.argsort(sim.person_id)]
+    assert np.array_equal(np.isnan(kp), np.isnan(ref)) and np.nanmax(np.abs(kp - ref)) <= 0.0005 + 1e-9
     meta = json.loads((out / "gt" / "simulation.json").read_text())
     assert meta["n_cam"] == 3 and meta["seed"] == 7 and len(meta["target_views"]) == 3
 

@@ -3,22 +3,18 @@ single tracklets, the outlier test, and cross-window linking (Eq. 3-12)."""
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).parent))
-from test_tracking_synth import as_raw, make_detections, ring_rig, simple_scene  # noqa: E402
+from conftest import as_raw, make_detections, ring_rig, simple_scene
 
-from gymtrack.geometry.plane import Plane  # noqa: E402
-from gymtrack.geometry.views import line_of_sight_angle  # noqa: E402
-from gymtrack.tracking import INTERPOLATED, PLANE, TRIANGULATION, track_detections  # noqa: E402
-from gymtrack.tracking.linking import link, link_distances, merge_overlaps  # noqa: E402
-from gymtrack.tracking.plane_fallback import plane_stage  # noqa: E402
-from gymtrack.tracking.reconstruct import outliers  # noqa: E402
-from gymtrack.tracking.types import WindowTracklets  # noqa: E402
+from gymtrack.geometry.plane import Plane
+from gymtrack.geometry.views import line_of_sight_angle
+from gymtrack.tracking import INTERPOLATED, PLANE, TRIANGULATION, track_detections
+from gymtrack.tracking.linking import link, link_distances, merge_overlaps
+from gymtrack.tracking.plane_fallback import plane_stage
+from gymtrack.tracking.reconstruct import outliers
+from gymtrack.tracking.types import WindowTracklets
 
 T = 40
 
@@ -105,7 +101,7 @@ def test_off_plane_person_seen_by_opposite_views_is_discarded():
 
 def _segs_on(rig, X, cams, W=10):
     """Segments of one person (X (W, 3)) in the given cameras, all observed."""
-    from test_tracking_synth import person_boxes
+    from conftest import person_boxes
 
     boxes = np.stack([person_boxes(rig[c], X) for c in cams])
     K = len(cams)

@@ -2,18 +2,14 @@
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).parent))
-from test_tracking_synth import ring_rig  # noqa: E402
+from conftest import ring_rig
 
-from gymtrack.geometry.epipolar import epipolar_distance, fundamental_matrices  # noqa: E402
-from gymtrack.tracking.clustering import complete_linkage, complete_linkage_sequential, tracklet_distances  # noqa: E402
-from gymtrack.tracking.types import WindowTracklets  # noqa: E402
+from gymtrack.geometry.epipolar import epipolar_distance, fundamental_matrices
+from gymtrack.tracking.clustering import complete_linkage, complete_linkage_sequential, tracklet_distances
+from gymtrack.tracking.types import WindowTracklets
 
 INF, NAN = np.inf, np.nan
 
@@ -110,7 +106,7 @@ def test_tracklet_distances_match_eq1_pair_by_pair():
 
 
 def test_same_person_seen_from_three_views_forms_one_cluster():
-    from test_tracking_synth import person_boxes
+    from conftest import person_boxes
 
     rig = ring_rig([0, 110, 230])
     F = fundamental_matrices(rig)

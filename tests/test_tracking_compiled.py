@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.optimize import linear_sum_assignment
 
-from conftest import points_seen_by, random_rig
+from conftest import points_seen_by, random_rig, same
 from gymtrack.geometry.epipolar import epipolar_distance, fundamental_matrices
 from gymtrack.geometry.triangulation import triangulate_views as triangulate_views_numpy
 from gymtrack.tracking import _compiled
@@ -194,14 +194,6 @@ def random_segments(rng, K, W=10, C=3, p_obs=0.7):
     filled, valid = fill_missing(box, observed, 2)
     return WindowTracklets(0, camera, np.arange(K, dtype=np.int64), filled, observed, valid,
                            np.where(observed, 1, -1).astype(np.int64))
-
-
-def same(a, b, rtol=1e-9, atol=1e-9):
-    a, b = np.asarray(a), np.asarray(b)
-    assert a.shape == b.shape
-    assert np.array_equal(np.isnan(a), np.isnan(b))
-    assert np.array_equal(np.isinf(a), np.isinf(b))
-    np.testing.assert_allclose(a, b, rtol=rtol, atol=atol, equal_nan=True)
 
 
 # ============================================================ tests

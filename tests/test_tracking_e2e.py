@@ -9,19 +9,16 @@ positions land near the annotated ground positions.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pytest
 
+from conftest import WILDTRACK, needs_wildtrack
+from gymtrack import simulate
 from gymtrack.detections import Detections
+from gymtrack.eval import metrics
 from gymtrack.tracking import track_detections
 
-simulate = pytest.importorskip("gymtrack.simulate", reason="the simulator (gymtrack.simulate) is not available")
-metrics = pytest.importorskip("gymtrack.eval.metrics", reason="gymtrack.eval.metrics is not available")
-
 SECONDS = 12
-from shared_data import WILDTRACK, needs_wildtrack  # noqa: E402
 
 
 def target_errors(sim, mode):

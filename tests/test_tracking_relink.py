@@ -3,18 +3,14 @@ fusing plane candidates (two segments Eq. 2 calls different people are never fus
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).parent))
-from test_tracking_synth import as_raw, make_detections, ring_rig, simple_scene  # noqa: E402
+from conftest import as_raw, make_detections, ring_rig, simple_scene
 
-from gymtrack.formats.scene import preset_scene  # noqa: E402
-from gymtrack.tracking import track_detections  # noqa: E402
-from gymtrack.tracking.linking import link, relink_distances, tracklet_ends  # noqa: E402
+from gymtrack.formats.scene import preset_scene
+from gymtrack.tracking import track_detections
+from gymtrack.tracking.linking import link, relink_distances, tracklet_ends
 
 T = 60
 

@@ -3,23 +3,19 @@ and the Eq. 14 pose boxes."""
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 from types import SimpleNamespace
 
 import cv2
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).parent))
-from test_tracking_synth import ring_rig  # noqa: E402
+from conftest import ring_rig
 
-from gymtrack.detections import Detections  # noqa: E402
-from gymtrack.tracking.target import (  # noqa: E402
+from gymtrack.detections import Detections
+from gymtrack.tracking.target import (
     BODY_HALF_DEPTH, MIN_HALF_LENGTH, MIN_LENGTH_COS, TargetBackfill, TargetSelector, TargetSmoother, backfill,
     buffered_boxes, identify_indicator, track_box_sizes)
-from gymtrack.tracking.types import INTERPOLATED, TRIANGULATION  # noqa: E402
+from gymtrack.tracking.types import INTERPOLATED, TRIANGULATION
 
 
 def run_selector(sel, frames, rows, ended):

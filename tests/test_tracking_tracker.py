@@ -4,19 +4,16 @@ input errors, and the output files."""
 from __future__ import annotations
 
 import json
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).parent))
-from test_tracking_synth import as_raw, make_detections, ring_rig, simple_scene  # noqa: E402
+from conftest import as_raw, make_detections, ring_rig, simple_scene
 
-from gymtrack.detections import Detections  # noqa: E402
-from gymtrack.errors import InputError  # noqa: E402
-from gymtrack.formats.outputs import read_target_3d, read_tracks_3d, write_outputs  # noqa: E402
-from gymtrack.tracking import INTERPOLATED, Tracker, TrackerOutput, track_detections  # noqa: E402
+from gymtrack.detections import Detections
+from gymtrack.errors import InputError
+from gymtrack.formats.outputs import read_target_3d, read_tracks_3d, write_outputs
+from gymtrack.tracking import INTERPOLATED, Tracker, TrackerOutput, track_detections
 
 
 def gym_scene_detections(T=150, seed=0, noise=2.0, drop=0.05, dist=None):

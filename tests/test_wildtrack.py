@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import WILDTRACK, needs_data
 from gymtrack.errors import CalibrationError, DetectionFormatError
 from gymtrack.formats.calibration import detect_format, load_calibration
 from gymtrack.formats.wildtrack import (
@@ -18,9 +19,7 @@ from gymtrack.formats.wildtrack import (
 )
 from gymtrack.geometry import Rig
 
-from shared_data import WILDTRACK, needs_data  # noqa: E402
-
-needs_wildtrack = needs_data("wildtrack", "calibrations", "needs the WILDTRACK calibration")
+needs_wildtrack = needs_data(WILDTRACK / "calibrations", "the WILDTRACK calibration")
 
 
 def _write_wildtrack_calibration(root: Path, rig: Rig) -> None:

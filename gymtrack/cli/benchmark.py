@@ -29,7 +29,7 @@ console = Console()
 
 def _methods(text: str) -> list[str]:
     from gymtrack.errors import InputError
-    from gymtrack.eval.report import METHODS
+    from gymtrack.eval.aggregate import METHODS
 
     out = [m.strip() for m in text.replace(" ", ",").split(",") if m.strip()]
     bad = [m for m in out if m not in METHODS]
@@ -40,7 +40,8 @@ def _methods(text: str) -> list[str]:
 
 def print_summary(rows: list[dict]) -> None:
     """Table 5 and the targets, with rich."""
-    from gymtrack.eval.report import _fmt, claims, table5
+    from gymtrack.eval.aggregate import claims, table5
+    from gymtrack.eval.render import fmt
 
     t5 = table5(rows)
     if t5:
@@ -51,14 +52,14 @@ def print_summary(rows: list[dict]) -> None:
             tab.add_column(f"FR n_cam={n}", justify="right")
         tab.add_column("frames/s", justify="right")
         for r in t5:
-            tab.add_row(r["method"], *[_fmt(r[f"fr_{n}"], "pct") for n in ns], _fmt(r["fps"], "fps"))
+            tab.add_row(r["method"], *[fmt(r[f"fr_{n}"], "pct") for n in ns], fmt(r["fps"], "fps"))
         console.print(tab)
     tab = Table(title="Targets", title_justify="left")
     for col in ("target", "value", "result", "detail"):
         tab.add_column(col)
     colour = {"PASS": "green", "FAIL": "red"}
     for c in claims(rows):
-        tab.add_row(c.name, _fmt(c.value, "ratio") if abs(c.value) < 100 else _fmt(c.value, "fps"),
+        tab.add_row(c.name, fmt(c.value, "ratio") if abs(c.value) < 100 else fmt(c.value, "fps"),
                     f"[{colour.get(c.status, 'yellow')}]{c.status}[/]", c.detail)
     console.print(tab)
 
@@ -72,7 +73,7 @@ def benchmark(
     # 4 = gymtrack.eval.benchmark.DEFAULT_PER_APPARATUS (kept literal: importing gymtrack.eval here slows every command)
     per_apparatus: int = typer.Option(4, "--per-apparatus", help="routines per apparatus (each seen with n_cam = 2, 3, 4) when simulating the default suite; 20 = the paper's 140 routines"),
     seconds: float = typer.Option(25.0, "--seconds", help="routine length in seconds when simulating the default suite (0: the simulator's defaults, 60 s and 20 s for vault)"),
-    wildtrack: Path = typer.Option(Path("../shared/data/wildtrack"), "--wildtrack", help="WILDTRACK folder for the real-data section (skipped with a note if absent)"),
+    wildtrack: Optional[Path] = typer.Option(None, "--wildtrack", help="WILDTRACK folder for the real-data section (skipped with a note if absent; default: gymtrack.eval.config's, ../shared/data/wildtrack)"),
     no_wildtrack: bool = typer.Option(False, "--no-wildtrack", help="skip the real-data section"),
     no_mot: bool = typer.Option(False, "--no-mot", help="skip the all-people MOT metrics (faster)"),
 ) -> None:
@@ -104,8 +105,10 @@ def benchmark(
         run = run_suite(specs, method_list, jobs=n_jobs, mot=not no_mot, progress=progress)
     wt = None
     if not no_wildtrack:
+        from gymtrack.eval.config import DEFAULT_CONFIG
         from gymtrack.eval.wildtrack import run_wildtrack
 
+        wildtrack = DEFAULT_CONFIG.wildtrack if wildtrack is None else wildtrack
         console.print("WILDTRACK real-data section ...")
         wt = run_wildtrack(wildtrack, log=lambda s: console.print("  " + s))
         if not wt.get("available"):

@@ -18,7 +18,7 @@ from rich.table import Table
 
 from gymtrack.cli import app
 from gymtrack.formats.routine import Routine, load_routine
-from gymtrack.formats.scene import Scene
+from gymtrack.scene import Scene
 from gymtrack.geometry.camera import Rig
 
 

@@ -1,10 +1,13 @@
 """Evaluation: the paper's metrics, the baselines and the benchmark (paper Section IV).
 
 * :mod:`.metrics`    ID switches, AED, FR, coverage of the target; MOTA / IDF1 of all people
-* :mod:`.gt`         ground truth of a routine; detections labelled with GT persons (the oracle)
+* :mod:`.gt`         detections labelled with GT persons (the oracle); the ground truth itself is
+  :mod:`gymtrack.formats.ground_truth`
 * :mod:`.mvpt`       the frame-by-frame MvPT-like baseline
 * :mod:`.benchmark`  every method on every routine of a suite, in parallel processes
-* :mod:`.report`     Tables 3, 5, 6, the claims, report.md / CSV / JSON, Fig. 6 plots
+* :mod:`.aggregate`  Tables 3, 5, 6 and the claims from the benchmark's rows
+* :mod:`.render`     report.md / CSV / JSON, Fig. 6 plots (:mod:`.report` re-exports both)
+* :mod:`.config`     the claims' thresholds and the data paths
 * :mod:`.score`      an output folder of ``gymtrack track`` scored against ``<routine>/gt/`` (``gymtrack eval``)
 * :mod:`.wildtrack`  the real-data section on WILDTRACK
 

@@ -10,7 +10,7 @@ Paper: Section IV (Tables 3, 5, 6 and Fig. 6). Methods:
 
 Each routine is one task of a ``concurrent.futures.ProcessPoolExecutor``: the worker reads the
 routine folder and its ground truth, runs every method, and returns one row per method with the
-additive parts of every metric (:mod:`gymtrack.eval.report` pools and tabulates them). Speed is
+additive parts of every metric (:mod:`gymtrack.eval.aggregate` pools and tabulates them). Speed is
 the tracker call alone, timed with ``time.perf_counter`` around it (file reading, GT matching
 and evaluation excluded), in the worker process -- so with ``jobs`` > 1 the methods of one routine
 share a core with other routines' work, equally for every method.
@@ -32,9 +32,10 @@ import numpy as np
 
 from ..detections import Detections
 from ..errors import InputError, RoutineError
-from ..formats.scene import Scene
+from ..scene import Scene
 from ..geometry.camera import Rig
-from .gt import GroundTruth, load_ground_truth, with_gt_ids
+from ..formats.ground_truth import GroundTruth, load_ground_truth
+from .gt import with_gt_ids
 from .metrics import (
     average_euclidean_distance,
     coverage,
@@ -43,7 +44,7 @@ from .metrics import (
     mot_metrics,
     target_id_switches,
 )
-from .report import METHODS
+from .aggregate import METHODS
 
 #: Apparatus whose n_cam = 2 routine is drawn like the paper's Fig. 6.
 FIG6_APPARATUS: tuple[str, ...] = ("balance_beam", "uneven_bars", "parallel_bars")
@@ -336,7 +337,7 @@ def run_suite(
 
 def write_benchmark(run: BenchmarkRun, out: str | Path, meta: dict | None = None, wildtrack: dict | None = None) -> dict[str, Path]:
     """Write the report, tables, JSON and the Fig. 6 plots of a run under ``out``."""
-    from .report import plot_target_trajectories, write_report
+    from .render import plot_target_trajectories, write_report
     from .wildtrack import wildtrack_markdown
 
     out = Path(out)

@@ -48,6 +48,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from ..scene import in_box  # re-exported: S_perf membership, written once
+
 __all__ = [
     "pairs_by_key",
     "performing_frames",
@@ -84,13 +86,6 @@ def pairs_by_key(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     within = np.arange(total) - np.repeat(np.cumsum(cnt) - cnt, cnt)
     ib = order[np.repeat(lo, cnt) + within]
     return ia, ib
-
-
-def in_box(points: np.ndarray, box: np.ndarray) -> np.ndarray:
-    """(..., 3) points, (6,) box ``[xmin, ymin, zmin, xmax, ymax, zmax]`` -> (...) bool."""
-    p = np.asarray(points, dtype=np.float64)
-    b = np.asarray(box, dtype=np.float64)
-    return np.all((p >= b[:3]) & (p <= b[3:]), axis=-1)
 
 
 def _unique_frame_rows(frame: np.ndarray, what: str) -> None:

@@ -34,7 +34,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from ..detections import Detections
-from ..formats.scene import Scene
+from ..scene import Scene
 from ..geometry.camera import Rig
 from ..geometry.epipolar import epipolar_distance, fundamental_matrices
 from ..geometry.triangulation import triangulate

@@ -20,7 +20,7 @@ import numpy as np
 from ..errors import InputError, RoutineError
 from ..formats.outputs import read_outputs
 from .benchmark import evaluate_routine
-from .gt import load_ground_truth
+from ..formats.ground_truth import load_ground_truth
 
 __all__ = ["score_output", "target_summary", "people_summary"]
 

@@ -37,13 +37,15 @@ from pathlib import Path
 import numpy as np
 
 from ..detections import Detections
-from ..formats.scene import Scene, scene_from_dict
+from ..formats.scene import scene_from_dict
+from ..scene import Scene
+from .config import DEFAULT_CONFIG
 from .metrics import mot_metrics, nearest_person
 
 __all__ = ["WildtrackSetup", "noisy_detections", "wildtrack_scene", "run_wildtrack", "wildtrack_markdown", "DEFAULT_PATH"]
 
-#: The dataset's default place, relative to the current directory (the project root).
-DEFAULT_PATH = Path("../shared/data/wildtrack")
+#: The dataset's default place, relative to the current directory (the benchmark's configuration).
+DEFAULT_PATH = DEFAULT_CONFIG.wildtrack
 FRAME_STEP = 5  # annotated every 5th video frame
 
 
@@ -177,13 +179,13 @@ def wildtrack_markdown(res: dict) -> str:
         f"horizontal, with a {s['gate']} m gate.",
         "",
     ]
-    from .report import _fmt, markdown_table
+    from .render import fmt, markdown_table
 
     body = []
     for mode, r in res["modes"].items():
-        body.append([mode, _fmt(r["mota"]), _fmt(r["idf1"]), r["id_switches"], r["false_positives"], r["fp_duplicates"],
-                     r["fp_ghosts"], r["misses"], _fmt(r["median_distance"]), _fmt(r["motp"]), r["tracks"], _fmt(r["mean_height"]),
-                     _fmt(r["fps"], "fps")])
+        body.append([mode, fmt(r["mota"]), fmt(r["idf1"]), r["id_switches"], r["false_positives"], r["fp_duplicates"],
+                     r["fp_ghosts"], r["misses"], fmt(r["median_distance"]), fmt(r["motp"]), r["tracks"], fmt(r["mean_height"]),
+                     fmt(r["fps"], "fps")])
     lines.append(markdown_table(["mode", "MOTA", "IDF1", "ID sw.", "FP", "of which duplicates", "of which ghosts", "FN",
                                  "median err. (m)", "mean err. (m)", "tracks", "mean z (m)", "frames/s"], body))
     lines += [

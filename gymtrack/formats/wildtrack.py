@@ -1,21 +1,15 @@
-"""WILDTRACK: real multi-camera pedestrian data, read as a rig, per-view boxes and ground positions.
+"""WILDTRACK: real multi-camera pedestrian data, read as per-view boxes and ground positions.
 
 Paper: none directly; WILDTRACK (Chavdarova et al., CVPR 2018) is real, independently calibrated
 multi-camera data on which the multi-view machinery of Section III-B (projection, epipolar
 distance, triangulation, ray-plane intersection with the ground plane) can be checked against
-something this project did not make.
+something this project did not make. The calibration reader is
+:mod:`gymtrack.formats.calibration.wildtrack` (re-exported here).
 
-Layout (``shared/data/wildtrack/README.md``):
-
-* ``calibrations/extrinsic/extr_<cam>.xml``: OpenCV FileStorage ``rvec`` (Rodrigues) and
-  ``tvec``, world -> camera, centimetres; the world is z up with the ground at z = 0.
-* ``calibrations/intrinsic_zero/intr_<cam>.xml``: ``camera_matrix`` of the undistorted frames,
-  which the annotations refer to (the default here, no distortion);
-  ``intrinsic_original/`` holds the same matrix plus the lens distortion of the raw video.
-* ``annotations_positions/NNNNNNNN.json``: per video frame, a list of
-  ``{personID, positionID, views: [{viewNum, xmin, ymin, xmax, ymax}]}``; a view where the person
-  is not visible has all four values -1. Ground position in cm:
-  ``X = -300 + 2.5 * (positionID % 480)``, ``Y = -900 + 2.5 * (positionID // 480)``, ``Z = 0``.
+Layout (``shared/data/wildtrack/README.md``): ``annotations_positions/NNNNNNNN.json``: per video
+frame, a list of ``{personID, positionID, views: [{viewNum, xmin, ymin, xmax, ymax}]}``; a view
+where the person is not visible has all four values -1. Ground position in cm:
+``X = -300 + 2.5 * (positionID % 480)``, ``Y = -900 + 2.5 * (positionID // 480)``, ``Z = 0``.
 """
 
 from __future__ import annotations
@@ -25,74 +19,21 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
 
-import cv2
 import numpy as np
 
 from ..detections import Detections
-from ..errors import CalibrationError, DetectionFormatError
-from ..geometry.camera import Camera, Rig
-from .calibration import _array, _camera, _dist, _rig, read_opencv_xml_numbers
+from ..errors import DetectionFormatError
+from .calibration.wildtrack import WILDTRACK_SIZE, WILDTRACK_VIEWS, read_wildtrack_calibration
 
-#: The seven views in ``viewNum`` order.
-WILDTRACK_VIEWS: tuple[str, ...] = ("CVLab1", "CVLab2", "CVLab3", "CVLab4", "IDIAP1", "IDIAP2", "IDIAP3")
-#: Image size of every WILDTRACK camera (width, height).
-WILDTRACK_SIZE: tuple[int, int] = (1920, 1080)
+__all__ = [
+    "WILDTRACK_VIEWS", "WILDTRACK_SIZE", "GRID_WIDTH", "GRID_ORIGIN_CM", "GRID_STEP_CM", "read_wildtrack_calibration",
+    "WildtrackAnnotations", "position_from_id", "read_wildtrack_annotations",
+]
+
 #: The ground grid: 480 x 1440 cells of 2.5 cm starting at (-300, -900) cm.
 GRID_WIDTH = 480
 GRID_ORIGIN_CM = (-300.0, -900.0)
 GRID_STEP_CM = 2.5
-
-
-def _calibrations_dir(folder: Path) -> Path:
-    if (folder / "extrinsic").is_dir():
-        return folder
-    if (folder / "calibrations" / "extrinsic").is_dir():
-        return folder / "calibrations"
-    raise CalibrationError("not a WILDTRACK calibrations folder: no extrinsic/ inside", source=folder)
-
-
-def read_wildtrack_calibration(
-    folder: str | Path, intrinsics: str = "zero", size: tuple[int, int] = WILDTRACK_SIZE
-) -> Rig:
-    """Read a WILDTRACK ``calibrations/`` folder (or the dataset folder holding it) into a Rig.
-
-    Parameters
-    ----------
-    folder: the ``calibrations/`` folder or its parent.
-    intrinsics: ``"zero"`` (default): ``intrinsic_zero/``, no distortion, matching the annotated
-        boxes, which refer to undistorted frames; ``"original"``: ``intrinsic_original/`` with the
-        lens distortion of the raw video.
-    size: image size, (1920, 1080) for WILDTRACK.
-
-    Cameras are named after their files (``extr_CVLab1.xml`` -> ``CVLab1``) and ordered as
-    :data:`WILDTRACK_VIEWS` (``viewNum`` order), other names after them, sorted. Translations
-    are converted from centimetres to metres.
-    """
-    root = _calibrations_dir(Path(folder))
-    if intrinsics not in ("zero", "original"):
-        raise CalibrationError(f"intrinsics must be 'zero' or 'original', got {intrinsics!r}", source=root, field="intrinsics")
-    intr_dir = root / f"intrinsic_{intrinsics}"
-    if not intr_dir.is_dir():
-        raise CalibrationError(f"missing folder intrinsic_{intrinsics}/", source=root)
-    files = {p.stem[len("extr_"):]: p for p in (root / "extrinsic").glob("extr_*.xml")}
-    if not files:
-        raise CalibrationError("no extr_<cam>.xml files", source=root / "extrinsic")
-    order = [n for n in WILDTRACK_VIEWS if n in files] + sorted(n for n in files if n not in WILDTRACK_VIEWS)
-    cams: list[Camera] = []
-    for name in order:
-        ext = files[name]
-        rvec = _array(read_opencv_xml_numbers(ext, "rvec"), (3,), ext, "rvec")
-        tvec = _array(read_opencv_xml_numbers(ext, "tvec"), (3,), ext, "tvec")
-        intr = intr_dir / f"intr_{name}.xml"
-        if not intr.is_file():
-            raise CalibrationError(f"no intrinsics for camera {name!r}", source=intr)
-        K = _array(read_opencv_xml_numbers(intr, "camera_matrix"), (3, 3), intr, "camera_matrix")
-        dist = np.zeros(5)
-        if intrinsics == "original":
-            dist = _dist(read_opencv_xml_numbers(intr, "distortion_coefficients"), intr, "distortion_coefficients")
-        R = cv2.Rodrigues(rvec)[0]
-        cams.append(_camera(name, size, K, R, tvec / 100.0, dist, ext))
-    return _rig(cams, root)
 
 
 @dataclass(frozen=True, eq=False)

@@ -45,7 +45,7 @@ class Plane:
 
     @classmethod
     def from_spec(cls, spec) -> "Plane":
-        """From a :class:`gymtrack.formats.scene.PlaneSpec`."""
+        """From a :class:`gymtrack.scene.PlaneSpec`."""
         return cls(np.asarray(spec.point), np.asarray(spec.normal))
 
     def signed_distance(self, X: np.ndarray) -> np.ndarray:

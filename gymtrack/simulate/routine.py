@@ -10,7 +10,8 @@ performance seen with fewer views):
 
 1. layout (judges' table), 2. the target's routine (:mod:`.skills`), 3. the cameras, aimed so
 that the target's performance fits every view (:mod:`.venue`), 4. coaches, judges and the
-background crowd (:mod:`.people`), 5. true boxes and the detector (:mod:`.detector`).
+background crowd (:mod:`.people`), 5. true boxes and the detector (:mod:`.detector`). Suites of
+routines are :mod:`.suite`.
 """
 
 from __future__ import annotations
@@ -25,14 +26,15 @@ import numpy as np
 from ..apparatus import APPARATUS_NAMES, Apparatus, get_apparatus
 from ..detections import Detections
 from ..errors import InputError
-from ..formats.scene import Scene, preset_scene
+from ..formats.scene import preset_scene, save_scene
+from ..scene import Scene
 from ..geometry.camera import Rig
 from . import body as B
 from .detector import DetectorParams, TrueBoxes, detect, true_boxes
 from .motion import PERFORMING, PHASE_NAMES
 from .people import Crowd, Person, judges_layout
 from .skills import Event, Layout, target_routine
-from .venue import CAMERA_NAMES, FPS, make_rig
+from .venue import FPS, make_rig
 
 #: Default routine length in seconds (a vault is short by nature).
 DEFAULT_SECONDS = {name: (20.0 if name == "vault" else 60.0) for name in APPARATUS_NAMES}
@@ -139,8 +141,8 @@ class SimulatedRoutine:
         return out
 
     def ground_truth(self):
-        """The ground truth as :class:`gymtrack.eval.gt.GroundTruth` (what ``gt/`` holds)."""
-        from ..eval.gt import GroundTruth
+        """The ground truth as :class:`gymtrack.formats.ground_truth.GroundTruth` (what ``gt/`` holds)."""
+        from ..formats.ground_truth import GroundTruth
 
         pi, ti = np.nonzero(self.alive)
         order = np.lexsort((self.person_id[pi], ti))
@@ -193,7 +195,7 @@ class SimulatedRoutine:
         ``cameras.yaml``, ``scene.yaml``, ``detections/<camera>.txt`` (ids -1), and ``gt/``:
         ``persons_3d.csv`` (every person every frame they exist; a 9th column ``phase`` is 1 on
         the target's performing frames), ``boxes_2d/<camera>.txt`` (true boxes overlapping the
-        image, visible 0/1), ``keypoints_3d.csv`` (COCO-17 joints of the target) and
+        image, visible 0/1), ``keypoints_3d.csv`` (COCO-17 joints of every person, mm) and
         ``simulation.json`` (what was simulated). ``plot``: also ``plot_top.png`` and
         ``plot_side.png`` (needs matplotlib).
         """
@@ -204,7 +206,7 @@ class SimulatedRoutine:
         (out / "detections").mkdir(parents=True, exist_ok=True)
         (out / "gt" / "boxes_2d").mkdir(parents=True, exist_ok=True)
         write_native(self.rig, out / "cameras.yaml")
-        self.scene.save(out / "scene.yaml")
+        save_scene(self.scene, out / "scene.yaml")
         d = self.detections
         for c, name in enumerate(self.rig.names):
             m = d.camera == c
@@ -226,7 +228,7 @@ class SimulatedRoutine:
             "heights_m": {int(i): round(float(h), 4) for i, h in zip(self.person_id, self.height)},
             "events": [{"kind": e.kind, "first_frame": int(e.start) + 1, "last_frame": int(e.stop)} for e in self.events],
             "phase_names": list(PHASE_NAMES),
-            "keypoints_3d": "target only",
+            "keypoints_3d": "every person, frames where alive",
         }
         (out / "gt" / "simulation.json").write_text(json.dumps(meta, indent=1) + "\n")
         if plot:
@@ -254,19 +256,19 @@ class SimulatedRoutine:
             np.savetxt(fh, rows, fmt="%d,%d,%s,%.4f,%.4f,%.4f,%.4f,%.4f,%d")
 
     def _write_keypoints(self, path: Path) -> None:
-        kp = self.keypoints[0]  # the target
-        T, J, _ = kp.shape
-        alive = self.alive[0]
-        ti = np.repeat(np.flatnonzero(alive), J)
-        ji = np.tile(np.arange(J), int(alive.sum()))
+        # every person (a crop may hold anyone) where alive, to the mm: a 25 s routine ~7 MB
+        pi, ti = np.nonzero(self.alive)
+        order = np.lexsort((self.person_id[pi], ti))
+        pi, ti = np.repeat(pi[order], 17), np.repeat(ti[order], 17)
+        ji = np.tile(np.arange(17), pi.size // 17)
         rows = np.empty((ti.size, 6), dtype=object)
         rows[:, 0] = self.frames[ti]
-        rows[:, 1] = self.target_id
+        rows[:, 1] = self.person_id[pi]
         rows[:, 2] = np.asarray(B.COCO_JOINTS, dtype=object)[ji]
-        rows[:, 3:6] = kp[ti, ji]
+        rows[:, 3:6] = self.keypoints[pi, ti, ji]
         with open(path, "w") as fh:
             fh.write("frame,person_id,joint,x,y,z\n")
-            np.savetxt(fh, rows, fmt="%d,%d,%s,%.4f,%.4f,%.4f")
+            np.savetxt(fh, rows, fmt="%d,%d,%s,%.3f,%.3f,%.3f")
 
 
 # ====================================================================== simulation
@@ -289,7 +291,8 @@ class _Scene:
     det_seed: np.random.SeedSequence
 
 
-def _check_args(apparatus: str, n_cam: int | None, seed, seconds) -> tuple[str, int | None, int, float]:
+def check_args(apparatus: str, n_cam: int | None, seed, seconds) -> tuple[str, int | None, int, float]:
+    """Validated ``(apparatus, n_cam, seed, seconds)``; InputError naming the argument otherwise."""
     if apparatus not in APPARATUS_NAMES:
         raise InputError(f"unknown apparatus {apparatus!r}; choose one of {', '.join(APPARATUS_NAMES)}", field="apparatus")
     if n_cam is not None and n_cam not in (2, 3, 4):
@@ -421,7 +424,7 @@ def simulate_routine(apparatus: str, n_cam: int = 4, seed: int = 0, seconds: flo
     Raises InputError for an unknown apparatus, an ``n_cam`` other than 2-4, a negative seed or a
     length out of range.
     """
-    apparatus, n_cam, seed, seconds = _check_args(apparatus, n_cam, seed, seconds)
+    apparatus, n_cam, seed, seconds = check_args(apparatus, n_cam, seed, seconds)
     sim = _finish(_simulate_scene(apparatus, seed, seconds), n_cam, detector)
     if out is not None:
         sim.write(out, plot=plot)
@@ -435,51 +438,8 @@ def simulate_n_cams(apparatus: str, seed: int = 0, seconds: float | None = None,
     The same as calling :func:`simulate_routine` once per ``n_cam`` with the same seed (bit for
     bit), but the scene (motion, cameras, people, true boxes) is built only once.
     """
-    apparatus, _, seed, seconds = _check_args(apparatus, None, seed, seconds)
+    apparatus, _, seed, seconds = check_args(apparatus, None, seed, seconds)
     for n in n_cams:
-        _check_args(apparatus, n, seed, seconds)
+        check_args(apparatus, n, seed, seconds)
     sc = _simulate_scene(apparatus, seed, seconds)
     return {int(n): _finish(sc, int(n), detector) for n in n_cams}
-
-
-def routine_seed(base_seed: int, apparatus: str, k: int) -> int:
-    """The seed of routine ``k`` of ``apparatus`` in a suite made with ``base_seed``."""
-    a = APPARATUS_NAMES.index(apparatus)
-    return int(np.random.SeedSequence([int(base_seed), a, int(k)]).generate_state(1, np.uint32)[0])
-
-
-def simulate_suite(out: str | Path, per_apparatus: int, seconds: float | None = None, seed: int = 0,
-                   apparatus: Sequence[str] | None = None, n_cams: Sequence[int] = (2, 3, 4), plot: bool = False,
-                   progress=None) -> list[dict]:
-    """Simulate the grid apparatus x routine x n_cam and write it under ``out``.
-
-    Layout: ``<out>/<apparatus>/ncam<n>/r<k>/`` (a routine folder each) and ``<out>/suite.json``
-    listing every routine (path relative to ``out``, apparatus, n_cam, seed, seconds, frames).
-    Routine ``k`` of an apparatus has the seed :func:`routine_seed` (``seed``, apparatus, k) and is
-    the same performance for every n_cam; ``gymtrack simulate --seed <that seed>`` reproduces it.
-    ``progress(entry)`` is called after each routine is written.
-    """
-    names = list(APPARATUS_NAMES if apparatus is None else apparatus)
-    if per_apparatus < 1:
-        raise InputError(f"per_apparatus must be at least 1, got {per_apparatus}", field="per_apparatus")
-    for n in n_cams:
-        _check_args(names[0] if names else "vault", n, 0, None)
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    entries = []
-    for name in names:
-        for k in range(per_apparatus):
-            rs = routine_seed(seed, name, k)
-            _, _, rs, secs = _check_args(name, None, rs, seconds)
-            for n, sim in simulate_n_cams(name, rs, secs, n_cams).items():
-                rel = Path(name) / f"ncam{n}" / f"r{k}"
-                sim.write(out / rel, plot=plot)
-                entry = {"path": rel.as_posix(), "apparatus": name, "n_cam": n, "seed": rs, "seconds": secs, "frames": sim.n_frames,
-                         "target_views": [c for c, v in zip(CAMERA_NAMES, sim.target_views) if v]}
-                entries.append(entry)
-                if progress is not None:
-                    progress(entry)
-    index = {"base_seed": int(seed), "per_apparatus": int(per_apparatus), "seconds": seconds, "n_cams": list(n_cams),
-             "layout": "<apparatus>/ncam<n>/r<k>", "routines": entries}
-    (out / "suite.json").write_text(json.dumps(index, indent=1) + "\n")
-    return entries

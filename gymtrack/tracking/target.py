@@ -43,7 +43,7 @@ from typing import Sequence
 import numpy as np
 from scipy.signal import savgol_coeffs
 
-from ..formats.scene import in_box
+from ..scene import in_box
 from ..geometry.camera import Rig
 from ..geometry.plane import Plane
 from . import _compiled

@@ -53,7 +53,7 @@ import numpy as np
 
 from ..detections import Detections
 from ..errors import InputError
-from ..formats.scene import Scene
+from ..scene import Scene
 from ..geometry.camera import Rig
 from ..geometry.epipolar import fundamental_matrices
 from ..geometry.plane import Plane

@@ -1,0 +1,38 @@
+"""The benchmark's configuration: the claims' thresholds and the data paths.
+
+Paper: the targets checked against Tables 3 and 5 (Section IV) -- the cascade's FR and AED
+relative to triangulation alone at two cameras, no loss with four, closeness to the
+ground-truth association, and speed -- live here rather than in the library's code, with the
+default place of the WILDTRACK data.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+__all__ = ["BenchmarkConfig", "DEFAULT_CONFIG"]
+
+
+@dataclass(frozen=True)
+class BenchmarkConfig:
+    """Thresholds of :func:`gymtrack.eval.aggregate.claims` and the benchmark's data paths."""
+
+    #: n_cam = 2, averaged over apparatus: cascade FR <= this x triangulation FR
+    fr_cascade_over_triangulation_2: float = 0.3
+    #: n_cam = 2: cascade AED <= this x triangulation AED
+    aed_cascade_over_triangulation_2: float = 0.85
+    #: n_cam = 4: cascade AED <= this x triangulation AED (the cascade must not hurt with views to spare)
+    aed_cascade_over_triangulation_4: float = 1.05
+    #: every n_cam: cascade AED <= this x the ground-truth association's (oracle) AED
+    aed_cascade_over_oracle: float = 1.25
+    #: the cascade's frames per second, at least
+    min_fps: float = 1000.0
+    #: the cascade's frames per second >= this x triangulation's
+    fps_cascade_over_triangulation: float = 0.9
+    #: the WILDTRACK dataset, relative to the current directory (the project root)
+    wildtrack: Path = Path("../shared/data/wildtrack")
+
+
+#: The thresholds the report and the CLI use unless told otherwise.
+DEFAULT_CONFIG = BenchmarkConfig()

@@ -1,0 +1,331 @@
+"""3D lifting of one track's multi-view 2D poses: the paper's DLT, and a robust lifting beyond it.
+
+Paper: Section III-D, last paragraph of "Identify Target Gymnast for Pose Estimation": the 2D
+poses a top-down model (HRNet) finds in each view's expanded box ``b_buf`` are triangulated
+with Eq. 3. ``method="dlt"`` is exactly that, per joint over the views that found it.
+``method="robust"`` (the default) goes beyond the paper, in this order:
+
+1. confidence-weighted DLT (:mod:`.dlt`): a view's rows weigh its 2D score over the pose's box
+   size (the pixel noise of a top-down model scales with its crop);
+2. a per-frame consensus over views (:mod:`.consensus`) that drops views whose reprojection
+   disagrees and reads a view with left and right exchanged where that fits clearly better;
+3. per joint, the worst view is dropped when its reprojection exceeds the gate (3+ views);
+4. the cascade for joints (:mod:`.anchor`): a joint seen by one view, or only by an opposite
+   pair, is anchored on the plane through the target's centre parallel to the apparatus
+   plane (given ``centre`` and ``plane_normal``), fused with its rays by their uncertainty;
+5. per-track bone lengths (median over well-observed frames) pull weak joints along their
+   line of sight (:func:`.anchor.pull_to_bones`);
+6. temporal smoothing that keeps flight phases sharp (:mod:`.smooth`).
+
+Shapes: T frames, C cameras (the rig's order), J joints. Input keypoints (T, C, J, 3) raw
+(distorted) pixels ``[x, y, score]``; outputs (T, J[, 3]). Internally (C, J, T), batch-last.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+from ..errors import InputError
+from ..geometry import Rig
+from ..geometry.triangulation import triangulate_views
+from ..poses import HOW_FUSED, HOW_NONE, HOW_PLANE, HOW_TRIANGULATED, Poses3D
+from ..skeletons import Skeleton
+from .anchor import anchor_on_plane, bone_lengths, lines_of_sight, opposite_only, pull_to_bones
+from .consensus import settle_ties, view_consensus
+from .dlt import gauss_newton, residuals, weighted_dlt
+from .smooth import smooth_track
+
+METHODS = ("dlt", "robust")
+
+
+@dataclass(frozen=True)
+class LiftOptions:
+    """Thresholds of the lifting, each with its trade-off.
+
+    min_score: 2D keypoints scored at or below are "not found". Higher drops more wrong joints
+        and more right ones (HRNet scores fall to ~0.3 on occluded joints).
+    gate_frac, gate_min_px: a view disagrees when its reprojection error exceeds
+        ``max(gate_min_px, gate_frac * box)``, box = the larger side of the pose's keypoint
+        extent in that view. Lower rejects more noise and more good views at wrists and ankles.
+    flip_ratio: a view is read left/right-swapped when that brings its lateral joints' error
+        below this share of the unswapped error. Lower = only clear swaps (a 3/4 view of a
+        narrow body looks alike both ways).
+    inlier_error: a view agrees with a consensus hypothesis when its mean gate-normalised,
+        capped error is below this.
+    min_common: joints a hypothesis and a view must share for the view to be judged at all.
+    refine_iterations: Gauss-Newton steps of the robust lifting; dlt_refine: of ``dlt``
+        (Eq. 3 is the reprojection error, the DLT only its linear start).
+    opposite_angle_deg: two views whose lines of sight meet above this are an opposite pair
+        (the scene's default); a joint seen only by them goes to the plane.
+    plane_sigma_m: the plane prior's standard deviation along its normal: the body's joints lie
+        within ~0.3-0.5 m of the plane through its centre. Smaller trusts the plane more.
+    pixel_sigma_frac: a keypoint's pixel noise as a share of the box (top-down models: ~2-5 %);
+        it sets the rays' weight against the plane.
+    min_plane_cos: a lone ray this close to parallel to the plane (|cos| to the normal) gets no
+        plane point (the intersection runs off to infinity).
+    bone_iterations, bone_weight, bone_min_frames: passes of the bone-length pull, the share of
+        the way a weak joint moves per pass, and the strong frames a bone needs for its length.
+    smooth_half_window: frames each side of the quadratic smoother (0 = off); longer smooths
+        more and follows sudden changes (a hand's catch) later. smooth_outlier_m: a joint
+        farther than this from its neighbours' fit is replaced by it.
+    plane_score_factor: score multiplier of plane-anchored and fused joints (their depth is a
+        prior, not a measurement).
+    """
+
+    min_score: float = 0.2
+    gate_frac: float = 0.08
+    gate_min_px: float = 4.0
+    flip_ratio: float = 0.6
+    inlier_error: float = 0.5
+    min_common: int = 3
+    refine_iterations: int = 2
+    dlt_refine: int = 1
+    opposite_angle_deg: float = 150.0
+    plane_sigma_m: float = 0.25
+    pixel_sigma_frac: float = 0.03
+    min_plane_cos: float = 0.15
+    bone_iterations: int = 3
+    bone_weight: float = 0.7
+    bone_min_frames: int = 5
+    smooth_half_window: int = 2
+    smooth_outlier_m: float = 0.15
+    plane_score_factor: float = 0.5
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            val = getattr(self, f.name)
+            if isinstance(val, bool) or not isinstance(val, (int, float)) or not np.isfinite(val) or val < 0:
+                raise InputError(f"must be a finite number >= 0, got {val!r}", source="LiftOptions", field=f.name)
+        if not 0 < self.flip_ratio <= 1:
+            raise InputError(f"must be in (0, 1], got {self.flip_ratio}", source="LiftOptions", field="flip_ratio")
+        if not 90 < self.opposite_angle_deg <= 180:
+            raise InputError(f"must be in (90, 180], got {self.opposite_angle_deg}", source="LiftOptions",
+                             field="opposite_angle_deg")
+        if self.plane_sigma_m <= 0 or self.pixel_sigma_frac <= 0:
+            raise InputError("plane_sigma_m and pixel_sigma_frac must be > 0", source="LiftOptions",
+                             field="plane_sigma_m" if self.plane_sigma_m <= 0 else "pixel_sigma_frac")
+
+
+@dataclass(eq=False)
+class Lifted:
+    """One track's 3D skeleton per frame, dense over its T frames.
+
+    xyz (T, J, 3) world metres, NaN = not estimated; score (T, J) in [0, 1]; n_views (T, J)
+    views that contributed; reproj_px (T, J) their mean reprojection error (undistorted pixels,
+    NaN if none); how (T, J) int8 ``gymtrack.poses.HOW_*``; counts: what the lifting did
+    (``views_dropped``, ``views_swapped``, ``frames_relabelled``, ``joint_views_dropped``,
+    ``joints_plane``, ``joints_fused``, ``joints_bone_pulled``, ``joints_smoothed_outliers``,
+    ``joints_unobservable``: weak joints left without a position).
+    """
+
+    xyz: np.ndarray
+    score: np.ndarray
+    n_views: np.ndarray
+    reproj_px: np.ndarray
+    how: np.ndarray
+    counts: dict[str, int] = field(default_factory=dict)
+
+    def __len__(self) -> int:
+        return len(self.xyz)
+
+    def to_poses3d(self, frames: np.ndarray, track_id: int, skeleton: Skeleton) -> Poses3D:
+        """Rows of :class:`gymtrack.poses.Poses3D` for ``frames`` (T,), one per frame with any joint."""
+        keep = np.isfinite(self.xyz).all(axis=2).any(axis=1)
+        n = int(keep.sum())
+        return Poses3D(frame=np.asarray(frames, np.int64)[keep], track_id=np.full(n, track_id, np.int64),
+                       xyz=self.xyz[keep], score=self.score[keep], n_views=self.n_views[keep],
+                       reproj_px=self.reproj_px[keep], how=self.how[keep], skeleton=skeleton)
+
+
+def _check(rig, keypoints, skeleton, method, centre, plane_normal, options):
+    if not isinstance(rig, Rig):
+        raise InputError(f"rig must be a gymtrack.geometry.Rig, got {type(rig).__name__}", field="rig")
+    if method not in METHODS:
+        raise InputError(f"unknown lifting method {method!r}; use one of {list(METHODS)}", field="method")
+    if not isinstance(options, LiftOptions):
+        raise InputError(f"options must be LiftOptions, got {type(options).__name__}", field="options")
+    kp = np.asarray(keypoints, dtype=np.float64)
+    J = len(skeleton.joints)
+    if kp.ndim != 4 or kp.shape[1:] != (len(rig), J, 3):
+        raise InputError(f"keypoints must be (T, C={len(rig)}, J={J}, 3) [x, y, score] for {len(rig)} cameras and "
+                         f"the {skeleton.name} skeleton's {J} joints, got shape {kp.shape}", field="keypoints")
+    score = kp[..., 2]
+    bad = np.isfinite(score) & ((score < 0) | (score > 1))
+    if bad.any():
+        t, c, j = np.argwhere(bad)[0]
+        raise InputError(f"scores must be in [0, 1]; {int(bad.sum())} are not, first at frame index {t}, camera "
+                         f"{rig[int(c)].name}, joint {skeleton.joints[j]}: {score[t, c, j]}", field="keypoints")
+    if (centre is None) != (plane_normal is None):
+        raise InputError("plane anchoring needs both centre and plane_normal (or neither)",
+                         field="centre" if centre is None else "plane_normal")
+    if centre is not None:
+        centre = np.asarray(centre, dtype=np.float64)
+        if centre.shape != (kp.shape[0], 3):
+            raise InputError(f"centre must be (T={kp.shape[0]}, 3), got {centre.shape}", field="centre")
+        n = np.asarray(plane_normal, dtype=np.float64)
+        norm = np.linalg.norm(n) if n.shape == (3,) else np.nan
+        if not np.isfinite(norm) or norm < 1e-9:
+            raise InputError(f"plane_normal must be a finite non-zero (3,) vector, got {plane_normal!r}",
+                             field="plane_normal")
+        plane_normal = n / norm
+    return kp, centre, plane_normal
+
+
+def lift_track(rig: Rig, keypoints: np.ndarray, skeleton: Skeleton, method: str = "robust",
+               centre: np.ndarray | None = None, plane_normal: np.ndarray | None = None,
+               options: LiftOptions = LiftOptions()) -> Lifted:
+    """Lift one track's 2D poses to 3D.
+
+    Parameters
+    ----------
+    rig: the calibrated cameras, in the order of ``keypoints``' camera axis.
+    keypoints: (T, C, J, 3) raw pixels ``[x, y, score]``; NaN or score <= ``min_score`` = missing.
+    skeleton: the joints' skeleton (J joints; ``flip`` and ``bones`` are used by ``robust``).
+    method: ``"dlt"`` (paper Eq. 3 per joint, unweighted) or ``"robust"`` (see the module doc).
+    centre: (T, 3) the track's 3D centre (NaN where unknown); plane_normal: (3,) the normal of
+        the apparatus plane nearest the target. Both or neither; only ``robust`` uses them.
+    options: thresholds (:class:`LiftOptions`).
+    """
+    kp, centre, normal = _check(rig, keypoints, skeleton, method, centre, plane_normal, options)
+    T, C, J = kp.shape[:3]
+    score = np.nan_to_num(kp[..., 2], nan=0.0)
+    found = np.isfinite(kp[..., :2]).all(axis=3) & (score > options.min_score)
+    uv = np.stack([cam.undistort(kp[:, c, :, :2]) for c, cam in enumerate(rig)], axis=1)
+    found &= np.isfinite(uv).all(axis=3)
+    u, v = (np.ascontiguousarray(uv[..., k].transpose(1, 2, 0)) for k in (0, 1))  # (C, J, T)
+    ok, sc = found.transpose(1, 2, 0), score.transpose(1, 2, 0)
+    P = rig.projections
+    if method == "dlt":
+        X, _ = triangulate_views(P, u.reshape(C, -1), v.reshape(C, -1), ok.reshape(C, -1), options.dlt_refine)
+        X3 = X.reshape(3, J, T).transpose(2, 1, 0)
+        how = np.where(np.isfinite(X3).all(axis=2), HOW_TRIANGULATED, HOW_NONE).astype(np.int8)
+        return _finish(P, X3, u, v, ok, sc, how, _gate(u, v, ok, options), options, {})
+    return _robust(rig, P, u, v, ok, sc, skeleton, centre, normal, options)
+
+
+def _box_size(u, v, ok):
+    """(C, T) larger side of the found keypoints' extent per view and frame (the crop's scale)."""
+    with np.errstate(invalid="ignore"):
+        lo_u, hi_u = np.where(ok, u, np.inf).min(axis=1), np.where(ok, u, -np.inf).max(axis=1)
+        lo_v, hi_v = np.where(ok, v, np.inf).min(axis=1), np.where(ok, v, -np.inf).max(axis=1)
+    size = np.maximum(hi_u - lo_u, hi_v - lo_v)
+    size = np.where((ok.sum(axis=1) >= 2) & np.isfinite(size) & (size > 0), size, np.nan)
+    fallback = np.nanmedian(size) if np.isfinite(size).any() else 100.0
+    return np.where(np.isfinite(size), size, fallback)
+
+
+def _gate(u, v, ok, options):
+    return np.maximum(options.gate_min_px, options.gate_frac * _box_size(u, v, ok))
+
+
+def _robust(rig, P, u, v, ok, sc, skeleton, centre, normal, opt) -> Lifted:
+    C, J, T = u.shape
+    flip = np.asarray(skeleton.flip, dtype=np.int64)
+    box = _box_size(u, v, ok)
+    gate = np.maximum(opt.gate_min_px, opt.gate_frac * box)
+    cons = view_consensus(P, u, v, ok, gate, flip, opt.flip_ratio, opt.inlier_error, opt.min_common)
+    present = ok.any(axis=1)
+    counts = {"views_dropped": int((present & ~cons.keep).sum()), "views_swapped": int(cons.swap.sum())}
+    sw = cons.swap[:, None, :]
+    u, v, ok, sc = (np.where(sw, a[:, flip], a) for a in (u, v, ok, sc))
+    use = ok & cons.keep[:, None, :]
+    w = np.where(use, sc / box[:, None, :], 0.0).reshape(C, -1)
+    uf, vf = u.reshape(C, -1), v.reshape(C, -1)
+    X = gauss_newton(P, weighted_dlt(P, uf, vf, w), uf, vf, w, opt.refine_iterations)
+    # per joint: drop the worst view when it alone disagrees (3+ views)
+    r = np.where(w > 0, residuals(P, X, uf, vf), -np.inf)
+    worst = np.argmax(r, axis=0)
+    n = np.arange(X.shape[1])
+    gate_n = np.repeat(gate[:, None, :], J, axis=1).reshape(C, -1)
+    drop = ((w > 0).sum(axis=0) >= 3) & (r[worst, n] > gate_n[worst, n])
+    if drop.any():
+        w[worst[drop], n[drop]] = 0.0
+        sub = np.flatnonzero(drop)
+        Xs = weighted_dlt(P, uf[:, sub], vf[:, sub], w[:, sub])
+        X[:, sub] = gauss_newton(P, Xs, uf[:, sub], vf[:, sub], w[:, sub], opt.refine_iterations)
+    counts["joint_views_dropped"] = int(drop.sum())
+    use = (w > 0).reshape(C, J, T)
+    X3 = X.reshape(3, J, T).transpose(2, 1, 0).copy()  # (T, J, 3)
+    relabel = settle_ties(X3, cons.tie, flip)
+    if relabel.any():
+        X3[relabel] = X3[relabel][:, flip]
+        u, v, use, sc = (np.where(relabel, a[:, flip], a) for a in (u, v, use, sc))
+    counts["frames_relabelled"] = int(relabel.sum())
+    X3, how, weak, counts2 = _cascade(rig, X3, u, v, use, sc, box, centre, normal, skeleton, opt)
+    counts.update(counts2)
+    how_w = np.where(how == HOW_TRIANGULATED, 1.0, opt.plane_score_factor)
+    mean_sc = np.where(use, sc, 0.0).sum(axis=0).T / np.maximum(use.sum(axis=0).T, 1)
+    X3, outliers = smooth_track(X3, mean_sc * how_w, opt.smooth_half_window, opt.smooth_outlier_m)
+    counts["joints_smoothed_outliers"] = int(outliers.sum())
+    return _finish(P, X3, u, v, use, sc, how, gate, opt, counts)
+
+
+def _cascade(rig, X3, u, v, use, sc, box, centre, normal, skeleton, opt):
+    """Steps 4-5 of the module doc: the plane anchoring of weak joints and the bone pull."""
+    C, J, T = u.shape
+    n_views = use.sum(axis=0)  # (J, T)
+    finite = np.isfinite(X3).all(axis=2).T  # (J, T)
+    with warnings.catch_warnings():  # frames without any joint: NaN, expected
+        warnings.simplefilter("ignore", RuntimeWarning)
+        ref = np.nanmedian(np.where((n_views >= 2).T[..., None], X3, np.nan), axis=1)
+    if centre is not None:
+        ref = np.where(np.isfinite(centre).all(axis=1, keepdims=True), centre, ref)
+    opposite = opposite_only(rig.centres, ref, use, opt.opposite_angle_deg)
+    weak = (n_views == 1) | opposite  # (J, T)
+    how = np.where(finite & (n_views >= 2), HOW_TRIANGULATED, HOW_NONE).astype(np.int8)
+    counts = {"joints_plane": 0, "joints_fused": 0}
+    uf, vf = u.reshape(C, -1), v.reshape(C, -1)
+    w = np.where(use, sc, 0.0).reshape(C, -1)
+    sel = np.flatnonzero(weak.reshape(-1))
+    o, d, o_main, d_main = lines_of_sight(rig, uf[:, sel], vf[:, sel], w[:, sel])
+    if centre is not None:
+        t_of = sel % T
+        good = np.isfinite(centre[t_of]).all(axis=1)
+        sel_c = sel[good]
+        sigma_px = opt.pixel_sigma_frac * np.repeat(box[:, None, :], J, axis=1).reshape(C, -1)[:, sel_c]
+        Xa = anchor_on_plane(rig, o, d[:, :, good], d_main[:, good], w[:, sel_c], centre[sel_c % T].T, normal,
+                             sigma_px, opt.plane_sigma_m, opt.min_plane_cos)
+        j, t = sel_c // T, sel_c % T
+        X3[t, j] = Xa.T
+        placed = np.isfinite(Xa).all(axis=0)
+        lone = n_views[j, t] == 1
+        how[j, t] = np.where(placed, np.where(lone, HOW_PLANE, HOW_FUSED), HOW_NONE)
+        counts["joints_plane"] = int((placed & lone).sum())
+        counts["joints_fused"] = int((placed & ~lone).sum())
+    single = (n_views == 1) & (how == HOW_NONE)  # a lone view without a plane: no depth at all
+    X3[single.T] = np.nan
+    counts["joints_unobservable"] = int((weak & (how == HOW_NONE) & (n_views > 0)).sum())
+    origin = np.full((T, J, 3), np.nan)
+    direction = np.full((T, J, 3), np.nan)
+    j, t = sel // T, sel % T
+    origin[t, j], direction[t, j] = o_main.T, d_main.T
+    strong = (how == HOW_TRIANGULATED) & ~weak
+    lengths = bone_lengths(X3, strong.T, np.asarray(skeleton.bones, np.int64).reshape(-1, 2), opt.bone_min_frames)
+    X3, pulled = pull_to_bones(X3, strong.T, (weak & (how != HOW_NONE)).T, origin, direction,
+                               np.asarray(skeleton.bones, np.int64).reshape(-1, 2), lengths, opt.bone_weight,
+                               opt.bone_iterations)
+    counts["joints_bone_pulled"] = pulled
+    return X3, how.T.copy(), weak.T, counts
+
+
+def _finish(P, X3, u, v, use, sc, how, gate, opt, counts) -> Lifted:
+    """Reprojection errors and scores of the final joints X3 (T, J, 3)."""
+    C, J, T = u.shape
+    X = X3.transpose(2, 1, 0).reshape(3, -1)
+    r = residuals(P, X, u.reshape(C, -1), v.reshape(C, -1)).reshape(C, J, T)
+    m = use & np.isfinite(r)
+    n_views = m.sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        reproj = np.where(n_views > 0, np.where(m, r, 0.0).sum(axis=0) / n_views, np.nan)
+        mean_sc = np.where(m, sc, 0.0).sum(axis=0) / np.maximum(n_views, 1)
+        g = np.where(m, gate[:, None, :], 0.0).sum(axis=0) / np.maximum(n_views, 1)
+        quality = 1.0 / (1.0 + (reproj / g) ** 2)
+    found = np.isfinite(X3).all(axis=2)
+    how = np.where(found, how, HOW_NONE).astype(np.int8)
+    factor = np.where(how == HOW_TRIANGULATED, 1.0, opt.plane_score_factor)
+    score = np.where(found & (n_views.T > 0), np.clip(mean_sc.T * np.nan_to_num(quality.T) * factor, 0, 1), 0.0)
+    return Lifted(xyz=X3, score=score, n_views=np.where(found, n_views.T, 0).astype(np.int64),
+                  reproj_px=np.where(found, reproj.T, np.nan), how=how, counts=counts)

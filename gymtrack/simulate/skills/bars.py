@@ -1,0 +1,286 @@
+"""Horizontal bar, uneven bars and parallel bars: giants, casts, releases, supports, dismounts.
+
+Paper: Section IV's bar apparatus; Section III-C's plane holds the giants (centre circling
+~1.0 m around the bar) with up to 0.5 m of off-plane drift (:func:`add_drift`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import body as B
+from ..motion import DISMOUNT, MOUNT, OFF_PLANE, SKILL, WAIT, WALK
+from .choreography import (CROUCH_LIGHT, TWO_PI, Choreography, Event, across_yaw, dismount_from_circle, lift_to_hang, pitch_ahead,
+                           support_shape)
+
+# ====================================================================== horizontal bar and uneven bars
+HIGH_BAR_Z = 2.8
+UB_LOW = (-0.75, 1.7)
+UB_HIGH = (0.75, 2.5)
+
+
+def _cast_to_handstand(c: Choreography, grip, yaw: float) -> None:
+    """From front support, cast (swing the legs back and up) to a handstand: pitch +pi, arms
+    kept vertical (shoulder flexion follows the pitch)."""
+    b = c.b
+    up = b.upright_pitch
+    b.grip_transition(grip, c.rng.uniform(0.9, 1.2), up + np.pi, yaw, posture=B.ARMS_UP, phase=SKILL,
+                      angle_fn=lambda th: support_shape(th, up))
+
+
+def _kip(c: Choreography, grip, yaw: float) -> None:
+    """From hang to front support (glide kip)."""
+    b = c.b
+    up = b.upright_pitch
+    b.swing(grip, [0.6], yaw, B.ARMS_UP, SKILL, centre_angle=up)
+    b.grip_transition(grip, c.rng.uniform(0.8, 1.1), up, yaw, posture=B.SUPPORT, phase=SKILL,
+                      angle_keys=[(0.45, B.posture_angles(B.PIKE)), (1.0, B.posture_angles(B.SUPPORT))])
+
+
+def _giant_shape(th: np.ndarray) -> np.ndarray:
+    """The giant's body shape: straight, arms overhead."""
+    return np.repeat(B.posture_angles(B.ARMS_UP)[None], th.size, 0)
+
+
+def _giant_to(c: Choreography, grip, yaw: float, d: float, rel: float, min_ahead: float = 0.3, phase: int = SKILL,
+              omega_top: float | None = None, ramp_out: float = 0.0) -> None:
+    """Giants in direction ``d`` up to the pitch ``d * rel`` (mod 2 pi) at least ``min_ahead`` on;
+    a giant starting from a handstand starts slowly."""
+    b = c.b
+    target = pitch_ahead(b.pitch, d, rel, min_ahead)
+    w_top = c.rng.uniform(2.3, 3.2) if omega_top is None else omega_top
+    at_top = abs(np.cos(b.pitch) + 1.0) < 0.05
+    b.giant(grip, abs(target - b.pitch) / TWO_PI, d, w_top, yaw, phase=phase, angle_fn=_giant_shape,
+            ramp_in=0.6 if at_top else 0.0, ramp_out=ramp_out)
+
+
+def _release_regrasp(c: Choreography, grip, yaw: float, d: float) -> None:
+    """A release over the bar (hecht / Tkatchev-like): let go 0.8 rad before the handstand, fly
+    over the bar with the centre rising 0.3-0.5 m, regrasp 0.8 rad past it and giant on."""
+    b, rng = c.b, c.rng
+    _giant_to(c, grip, yaw, d, np.pi - 0.8, min_ahead=np.pi)
+    th_g = b.pitch + d * 1.6
+    arms = B.posture_angles(B.ARMS_UP)
+    end = c.grip_centre(grip, arms, yaw, th_g)
+    apex = max(b.centre[2], end[2]) + rng.uniform(0.3, 0.5)
+    shape = B.posture_angles(rng.choice([B.STRADDLE, B.PIKE, B.LAYOUT]))
+    b.flight(end, b.flight_frames(b.centre[2], end[2], apex), th_g, angle_keys=[(0.3, shape), (0.7, shape), (1.0, arms)],
+             posture=B.STRADDLE, phase=SKILL)
+
+
+def _bar_dismount(c: Choreography, grip, yaw: float, d: float, reach: tuple[float, float]) -> None:
+    """Giants to the release on the up-swing (1.25-1.45 rad past the bottom), salto to the floor."""
+    rng = c.rng
+    c._phase = DISMOUNT
+    _giant_to(c, grip, yaw, d, rng.uniform(1.25, 1.45), min_ahead=np.pi, phase=DISMOUNT)
+    side = float(np.sign(-d * np.sin(yaw)))  # the centre moves this way in y on the up-swing
+    dismount_from_circle(c, grip, d, side, reach, (0.9, 1.2), int(rng.choice([1, 2])))
+    c._phase = SKILL
+
+
+def horizontal_bar_routine(c: Choreography) -> None:
+    b, rng = c.b, c.rng
+    face = rng.choice([-1.0, 1.0])
+    yaw = across_yaw(face)
+    side_in = -c.layout.judge_side
+    xg = rng.uniform(-0.3, 0.3)
+    entry = c.entry([side_in * 0.8, 0.0], [side_in * rng.uniform(2.3, 3.0), rng.uniform(-2.0, 2.0)])
+    b.place(entry, 0.0, float(np.arctan2(-entry[1], side_in * 0.8 - entry[0])))
+    b.walk_to((side_in * 0.8, 0.0), rng.uniform(1.1, 1.4), 0.0, WALK)
+    c.salute()
+    b.walk_to((xg, 0.0), 0.8, 0.0, WALK)
+    b.stand(0.5, 0.0, B.STAND, WAIT, yaw=yaw)
+    grip = np.array([xg, 0.0, HIGH_BAR_Z])
+    lift_to_hang(c, grip, rng.uniform(1.0, 1.3))
+    _kip(c, grip, yaw)
+    _cast_to_handstand(c, grip, yaw)
+    d = rng.choice([-1.0, 1.0])
+    reserve = 7.0
+    while c.left > reserve:
+        n0, saved = b.n, (grip.copy(), d)
+        kind = rng.choice(["giants", "release", "pirouette"], p=[0.5, 0.3, 0.2])
+        if kind == "giants":
+            _giant_to(c, grip, yaw, d, np.pi, min_ahead=TWO_PI * float(rng.integers(1, 3)) - 0.5)
+        elif kind == "release":
+            _release_regrasp(c, grip, yaw, d)
+        else:  # giant to the handstand, pirouette: the hands move along the bar, the direction reverses
+            _giant_to(c, grip, yaw, d, np.pi, min_ahead=np.pi, ramp_out=0.6)
+            new_grip = grip.copy()
+            new_grip[0] = np.clip(grip[0] + rng.uniform(-0.3, 0.3), -0.5, 0.5)
+            b.hold_grip(grip, rng.uniform(0.5, 0.8), yaw, B.posture_angles(B.ARMS_UP), B.ARMS_UP, SKILL, grip_end=new_grip)
+            grip = new_grip
+            d = -d
+        if c.left < reserve:  # ran into the time kept for the dismount: undo
+            b.truncate(b.n - n0)
+            grip, d = saved
+            break
+    _bar_dismount(c, grip, yaw, d, (1.5, 2.1))
+    c.salute()
+    c.walk_out(c.outside_point(side_in, rng.uniform(1.5, 2.0)))
+    c.pad_to_end(c.outside_point(side_in, 4.0))
+
+
+def uneven_bars_routine(c: Choreography) -> None:
+    b, rng = c.b, c.rng
+    yaw = across_yaw(1.0)  # facing the high bar from the low bar
+    side_in = -c.layout.judge_side
+    xg = rng.uniform(-0.3, 0.3)
+    low = np.array([xg, UB_LOW[0], UB_LOW[1]])
+    high = np.array([xg, UB_HIGH[0], UB_HIGH[1]])
+    entry = c.entry([xg, -1.6], [side_in * rng.uniform(2.3, 3.0), -rng.uniform(2.0, 2.6)])
+    b.place(entry, 0.0, float(np.arctan2(-1.6 - entry[1], xg - entry[0])))
+    b.walk_to((xg, -1.6), rng.uniform(1.1, 1.4), 0.0, WALK)
+    c.salute()
+    b.stand(0.4, 0.0, B.STAND, WAIT, yaw=yaw)
+    # Mount: jump to front support on the low bar.
+    c._phase = MOUNT
+    c.jump_prep(0.0, 0.3)
+    sup = B.posture_angles(B.SUPPORT)
+    arms = B.posture_angles(B.ARMS_UP)
+    end = c.grip_centre(low, sup, yaw, b.upright_pitch)
+    b.flight(end, b.flight_frames(b.centre[2], end[2], end[2] + 0.25), b.pitch, angle_keys=[(0.5, CROUCH_LIGHT), (1.0, sup)],
+             posture=B.SUPPORT, phase=MOUNT)
+    b.hold_grip(low, 0.4, yaw, sup, B.SUPPORT, MOUNT)
+    c.events.append(Event("spot", b.n - int(1.2 * b.fps), b.n, (float(xg), float(UB_LOW[0] - 0.5))))
+    c._phase = SKILL
+    reserve = 7.0
+
+    def low_to_high() -> None:
+        _cast_to_handstand(c, low, yaw)
+        # fall towards the high bar and fly to it (low-to-high transition), catch in hang
+        b.giant(low, 0.2, 1.0, 1.2, yaw, angle_fn=_giant_shape, ramp_in=0.6)
+        th_g = b.upright_pitch + rng.uniform(-0.3, 0.1)
+        end = c.grip_centre(high, arms, yaw, th_g)
+        apex = max(b.centre[2], end[2]) + rng.uniform(0.2, 0.4)
+        b.flight(end, b.flight_frames(b.centre[2], end[2], apex), th_g, angle_keys=[(0.4, B.posture_angles(B.PIKE)), (1.0, arms)],
+                 posture=B.PIKE, phase=SKILL)
+        b.swing(high, [0.8, 0.5], yaw, B.ARMS_UP, SKILL, centre_angle=b.upright_pitch)
+        _kip(c, high, yaw)
+        _cast_to_handstand(c, high, yaw)
+
+    low_to_high()
+    while c.left > reserve:
+        n0 = b.n
+        kind = rng.choice(["giants", "release", "to_low"], p=[0.45, 0.25, 0.3])
+        if kind == "giants":
+            _giant_to(c, high, yaw, -1.0, np.pi, min_ahead=TWO_PI * float(rng.integers(1, 3)) - 0.5)
+        elif kind == "release":
+            _release_regrasp(c, high, yaw, -1.0)
+        else:
+            # high-to-low: from the handstand fall towards the low bar, let go and drop to support
+            # on it; then back up to the high bar
+            _giant_to(c, high, yaw, -1.0, np.pi + 0.6, min_ahead=0.3)
+            up_t = float(np.floor(b.pitch / TWO_PI) * TWO_PI)
+            end = c.grip_centre(low, sup, yaw, up_t)
+            apex = max(b.centre[2], end[2]) + rng.uniform(0.1, 0.3)
+            b.flight(end, b.flight_frames(b.centre[2], end[2], apex), up_t,
+                     angle_keys=[(0.4, B.posture_angles(B.PIKE)), (1.0, sup)], posture=B.PIKE, phase=SKILL)
+            b.hold_grip(low, 0.5, yaw, sup, B.SUPPORT, SKILL)
+            low_to_high()
+        if c.left < reserve:  # ran into the time kept for the dismount: undo
+            b.truncate(b.n - n0)
+            break
+    # Dismount from the high bar away from the low bar (+y): backward giants (d = -1).
+    _bar_dismount(c, high, yaw, -1.0, (1.3, 1.7))
+    c.salute()
+    c.walk_out(c.outside_point(side_in, rng.uniform(1.5, 2.0)))
+    c.pad_to_end(c.outside_point(side_in, 4.0))
+
+
+# ====================================================================== parallel bars
+PB_Z = 2.0
+PB_HALF = 1.75
+
+
+def parallel_bars_routine(c: Choreography) -> None:
+    b, rng = c.b, c.rng
+    sx = rng.choice([-1.0, 1.0])  # mount end
+    yaw = 0.0 if sx < 0 else np.pi  # facing into the bars
+    h = -sx  # heading along the bars
+    stand_pt = np.array([sx * (PB_HALF + 0.5), 0.0])
+    entry = c.entry(stand_pt, [stand_pt[0] + sx * rng.uniform(0.2, 0.6), -c.layout.judge_side * rng.uniform(1.8, 2.4)])
+    b.place(entry, 0.0, float(np.arctan2(-entry[1], stand_pt[0] - entry[0])))
+    b.walk_to(stand_pt, rng.uniform(1.1, 1.4), 0.0, WALK)
+    c.salute()
+    b.stand(0.4, 0.0, B.STAND, WAIT, yaw=yaw)
+    c._phase = MOUNT
+    c.jump_prep(0.0, 0.3)
+    grip = np.array([sx * (PB_HALF - 0.5), 0.0, PB_Z])
+    sup = B.posture_angles(B.SUPPORT)
+    end = c.grip_centre(grip, sup, yaw, b.upright_pitch)
+    b.flight(end, b.flight_frames(b.centre[2], end[2], end[2] + 0.2), b.pitch, angle_keys=[(0.5, CROUCH_LIGHT), (1.0, sup)],
+             posture=B.SUPPORT, phase=MOUNT)
+    b.hold_grip(grip, 0.4, yaw, sup, B.SUPPORT, MOUNT)
+    up = b.upright_pitch
+    r_sh = 0.32 * b.body.height  # shoulders to centre in support: the swing's pivot radius
+    off_plane_done = False
+    reserve = 7.5
+    while c.left > reserve:
+        n0, saved = b.n, (grip.copy(), up, h, off_plane_done)
+        kind = rng.choice(["swings", "handstand", "travel", "l_sit", "salto", "one_rail"], p=[0.3, 0.2, 0.15, 0.1, 0.15, 0.1])
+        if kind == "one_rail" and off_plane_done:
+            kind = "swings"
+        if kind == "swings":
+            amps = list(np.linspace(0.5, rng.uniform(1.0, 1.5), int(rng.integers(3, 6))))
+            b.swing(grip, amps + [0.3, 0.0], yaw, B.SUPPORT, SKILL, centre_angle=up, angle_fn=lambda th: support_shape(th, up), radius=r_sh)
+        elif kind == "handstand":
+            amps = [0.7, 1.3, 2.0]
+            b.swing(grip, amps, yaw, B.SUPPORT, SKILL, centre_angle=up, angle_fn=lambda th: support_shape(th, up), radius=r_sh)
+            b.grip_transition(grip, 0.6, up + np.pi, yaw, B.posture_angles(B.ARMS_UP), B.ARMS_UP, SKILL)
+            b.hold_grip(grip, rng.uniform(1.0, 2.0), yaw, B.posture_angles(B.ARMS_UP), B.ARMS_UP, SKILL)
+            b.swing(grip, [1.5, 0.9, 0.4, 0.0], yaw, B.SUPPORT, SKILL, centre_angle=up, angle_fn=lambda th: support_shape(th, up),
+                    radius=r_sh)
+        elif kind == "travel":
+            room = PB_HALF - 0.35 - h * grip[0]
+            if room < 0.4:
+                h = -h
+                room = PB_HALF - 0.35 - h * grip[0]
+            dist = min(rng.uniform(0.4, 1.0), room)
+            g2 = grip + np.array([h * dist, 0.0, 0.0])
+            b.hold_grip(grip, dist / rng.uniform(0.3, 0.5), yaw, sup, B.SUPPORT, SKILL, grip_end=g2)
+            grip = g2
+        elif kind == "l_sit":
+            b.hold_grip(grip, rng.uniform(1.5, 2.2), yaw, B.posture_angles(B.L_SIT), B.L_SIT, SKILL)
+            b.hold_grip(grip, 0.4, yaw, sup, B.SUPPORT, SKILL)
+        elif kind == "salto":
+            # swing to the front, let go at the turning point, salto on in the same direction,
+            # catch in support a little further along
+            b.swing(grip, [0.6, 1.0, 1.3], yaw, B.SUPPORT, SKILL, centre_angle=up, angle_fn=lambda th: support_shape(th, up), radius=r_sh)
+            step = float(min(0.4, max(PB_HALF - 0.3 - abs(grip[0]), 0.0)))
+            g2 = grip + np.array([h * step, 0.0, 0.0])
+            pitch_end = up + TWO_PI * float(np.sign(b.pitch - up) or 1.0)
+            end = c.grip_centre(g2, sup, yaw, pitch_end)
+            apex = max(b.centre[2], end[2]) + rng.uniform(0.4, 0.6)
+            tuck = B.posture_angles(B.TUCK)
+            b.flight(end, b.flight_frames(b.centre[2], end[2], apex), pitch_end, angle_keys=[(0.3, tuck), (0.75, tuck), (1.0, sup)],
+                     posture=B.TUCK, phase=SKILL)
+            up = b.upright_pitch
+            grip = g2
+            b.hold_grip(grip, 0.4, yaw, sup, B.SUPPORT, SKILL)
+        else:  # a moment on one rail: shift outside the plane and back
+            side = rng.choice([-1.0, 1.0])
+            g_side = grip + np.array([0.0, side * rng.uniform(0.35, 0.45), 0.0])
+            b.hold_grip(grip, 0.8, yaw, sup, B.SUPPORT, OFF_PLANE, grip_end=g_side)
+            b.hold_grip(g_side, rng.uniform(1.0, 1.8), yaw, B.posture_angles(B.L_SIT), B.L_SIT, OFF_PLANE)
+            b.hold_grip(g_side, 0.8, yaw, sup, B.SUPPORT, OFF_PLANE, grip_end=grip)
+            off_plane_done = True
+        if c.left < reserve:  # ran into the time kept for the dismount: undo
+            b.truncate(b.n - n0)
+            grip, up, h, off_plane_done = saved
+            break
+    # Dismount: swing to handstand, salto off the end.
+    c._phase = DISMOUNT
+    end_dir = 1.0 if grip[0] >= 0 else -1.0
+    b.swing(grip, [0.7, 1.3, 1.9], yaw, B.SUPPORT, DISMOUNT, centre_angle=up, angle_fn=lambda th: support_shape(th, up), radius=r_sh)
+    b.truncate(int(0.1 * b.fps))
+    d = float(np.sign(b.pitch - up) or 1.0)
+    land_x = float(end_dir * rng.uniform(PB_HALF + 0.3, PB_HALF + 0.6))
+    n_salto = int(rng.choice([0, 1]))
+    nxt = np.ceil(b.pitch / TWO_PI) * TWO_PI if d > 0 else np.floor(b.pitch / TWO_PI) * TWO_PI
+    c.flight_to_floor((land_x, rng.uniform(-0.15, 0.15)), b.centre[2] + rng.uniform(0.3, 0.6), (nxt - b.pitch) + d * TWO_PI * n_salto,
+                      shape=rng.choice([B.TUCK, B.PIKE]), phase=DISMOUNT)
+    c.land(0.0)
+    c._phase = SKILL
+    c.salute()
+    c.walk_out(c.outside_point(-c.layout.judge_side, rng.uniform(1.5, 2.0)))
+    c.pad_to_end(c.outside_point(-c.layout.judge_side, 4.0))
