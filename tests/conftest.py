@@ -50,6 +50,19 @@ def _shared_data() -> Path:
 #: The WILDTRACK data set (tests that need it skip when it is absent).
 WILDTRACK = _shared_data() / "wildtrack"
 
+
+def needs_data(path: Path, what: str):
+    """A skipif mark: skip unless ``path`` exists, with a reason naming it (a clone without
+    ``../shared`` runs every other test)."""
+    return pytest.mark.skipif(
+        not Path(path).exists(),
+        reason=f"needs {what}: {path} not found (put it under ../shared/data or set $GYMTRACK_SHARED_DATA)",
+    )
+
+
+#: Tests on the real WILDTRACK annotations and calibration.
+needs_wildtrack = needs_data(WILDTRACK / "annotations_positions", "the WILDTRACK data set")
+
 SIZE = (1920, 1080)
 #: the region the random cameras look at: [xmin, ymin, zmin, xmax, ymax, zmax], metres
 REGION = np.array([-4.0, -3.0, 0.0, 4.0, 3.0, 2.5])

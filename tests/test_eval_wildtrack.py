@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from conftest import WILDTRACK
+from conftest import WILDTRACK, needs_wildtrack
 from gymtrack.detections import Detections
 from gymtrack.eval.wildtrack import WildtrackSetup, noisy_detections, run_wildtrack, wildtrack_markdown
 
@@ -32,7 +32,7 @@ def test_missing_folder_is_skipped_with_a_note(tmp_path):
     assert "skipped" in wildtrack_markdown(r)
 
 
-@pytest.mark.skipif(not (DATA / "annotations_positions").is_dir(), reason="WILDTRACK data not available")
+@needs_wildtrack
 def test_short_wildtrack_run_with_clean_boxes():
     # 30 annotated frames, the annotation boxes themselves (no noise): the triangulated tracks must
     # sit on the annotated ground positions (horizontally) and at about hip height

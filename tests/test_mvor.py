@@ -7,6 +7,7 @@ figures are those of the data's README ("Checked facts").
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -17,8 +18,10 @@ from gymtrack.formats.mvor import MVOR_JOINTS, coco17_to_mvor, default_folder, r
 from gymtrack.skeletons import COCO17
 
 FOLDER = default_folder()
-needs_data = pytest.mark.skipif(FOLDER is None or not (FOLDER / "camma_mvor_2018.json").is_file(),
-                                reason="MVOR data not available (shared/data/mvor or $GYMTRACK_MVOR)")
+needs_data = pytest.mark.skipif(
+    FOLDER is None or not (FOLDER / "camma_mvor_2018.json").is_file(),
+    reason=f"needs the MVOR data set: {(FOLDER or Path('../shared/data/mvor')) / 'camma_mvor_2018.json'} not found "
+           "(put it in ../shared/data/mvor or set $GYMTRACK_MVOR)")
 
 
 @pytest.fixture(scope="module")

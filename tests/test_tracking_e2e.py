@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from conftest import WILDTRACK
+from conftest import WILDTRACK, needs_wildtrack
 from gymtrack import simulate
 from gymtrack.detections import Detections
 from gymtrack.eval import metrics
@@ -78,7 +78,7 @@ def test_two_opposite_views_cascade_beats_triangulation(apparatus):
     assert out["cascade"].mean < 0.7 * out["triangulation"].mean  # ... and the cascade is clearly closer
 
 
-@pytest.mark.skipif(not (WILDTRACK / "annotations_positions").is_dir(), reason=f"WILDTRACK not found at {WILDTRACK}")
+@needs_wildtrack
 def test_wildtrack_positions_land_near_the_annotated_ground_positions():
     from gymtrack.formats.scene import scene_from_dict
     from gymtrack.formats.wildtrack import read_wildtrack_annotations, read_wildtrack_calibration

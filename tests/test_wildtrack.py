@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from conftest import WILDTRACK
+from conftest import WILDTRACK, needs_data
 from gymtrack.errors import CalibrationError, DetectionFormatError
 from gymtrack.formats.calibration import detect_format, load_calibration
 from gymtrack.formats.wildtrack import (
@@ -19,10 +19,7 @@ from gymtrack.formats.wildtrack import (
 )
 from gymtrack.geometry import Rig
 
-needs_wildtrack = pytest.mark.skipif(
-    not (WILDTRACK / "calibrations").is_dir(),
-    reason=f"WILDTRACK data not found at {WILDTRACK} (shared/data/wildtrack beside the repository)",
-)
+needs_wildtrack = needs_data(WILDTRACK / "calibrations", "the WILDTRACK calibration")
 
 
 def _write_wildtrack_calibration(root: Path, rig: Rig) -> None:

@@ -8,6 +8,7 @@
 * :mod:`.aggregate`  Tables 3, 5, 6 and the claims from the benchmark's rows
 * :mod:`.render`     report.md / CSV / JSON, Fig. 6 plots (:mod:`.report` re-exports both)
 * :mod:`.config`     the claims' thresholds and the data paths
+* :mod:`.score`      an output folder of ``gymtrack track`` scored against ``<routine>/gt/`` (``gymtrack eval``)
 * :mod:`.wildtrack`  the real-data section on WILDTRACK
 
 Only the light modules are imported here; the others pull in the tracker and are imported on use.

@@ -17,7 +17,9 @@ from __future__ import annotations
 
 import csv
 import json
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 
@@ -135,3 +137,83 @@ def _read_csv(path: Path, columns: tuple[str, ...]) -> dict[str, np.ndarray]:
     if "n_views" in columns:
         out["n_views"] = num("n_views").astype(np.int64)
     return out
+
+
+# ----------------------------------------------------------------------------- reading a whole folder
+@dataclass(frozen=True, eq=False)
+class OutputColumns:
+    """3D points read back from ``tracks_3d.csv`` or ``target_3d.csv``.
+
+    frame (N,) int64, track_id (N,) int64, xyz (N, 3) metres, source (N,) str.
+    """
+
+    frame: np.ndarray
+    track_id: np.ndarray
+    xyz: np.ndarray
+    source: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.frame)
+
+
+@dataclass(frozen=True, eq=False)
+class OutputFolder:
+    """An output folder of ``gymtrack track`` read back, shaped like a ``TrackResult``.
+
+    tracks, target: :class:`OutputColumns`; boxes, target_boxes: :class:`Detections` of
+    ``tracks_2d/`` and ``target_2d/`` (centre form, ``track_id`` = 3D track id) over
+    ``camera_names``; summary: ``summary.json`` ({} when absent); extra_files: per-camera files
+    for cameras not in ``camera_names`` (listed, not read).
+    """
+
+    path: Path
+    tracks: OutputColumns
+    boxes: Detections
+    target: OutputColumns
+    target_boxes: Detections
+    camera_names: tuple[str, ...]
+    summary: dict = field(default_factory=dict)
+    extra_files: tuple[Path, ...] = ()
+
+
+def _columns(d: dict) -> OutputColumns:
+    return OutputColumns(d["frame"], d["track_id"], d["xyz"], d["source"])
+
+
+def _read_boxes(folder: Path, names: tuple[str, ...]) -> tuple[Detections, list[Path]]:
+    from .motchallenge import read_detections
+
+    if not folder.is_dir():
+        raise InputError(f"folder {folder.name}/ not found (one MOTChallenge file per camera expected)", source=folder)
+    parts = []
+    for c, name in enumerate(names):
+        p = folder / f"{name}.txt"
+        if not p.is_file():
+            raise InputError(f"no file for camera {name!r} (cameras: {', '.join(names)})", source=p)
+        parts.append(read_detections(p, c, names)[0])
+    extra = sorted(p for p in folder.glob("*.txt") if p.stem not in names)
+    return (Detections.concat(parts).sorted() if parts else Detections.empty(names)), extra
+
+
+def read_outputs(out: str | Path, camera_names: Sequence[str]) -> OutputFolder:
+    """Read what :func:`write_outputs` wrote under ``out`` for the cameras ``camera_names``.
+
+    Every file but ``summary.json`` is required; a missing or malformed one is an
+    :class:`InputError` naming it. Numbers come back with the files' precision (4 decimals
+    for metres, 2 for pixels).
+    """
+    out = Path(out)
+    if not out.is_dir():
+        raise InputError("output folder not found", source=out)
+    names = tuple(camera_names)
+    tracks, target = _columns(read_tracks_3d(out / "tracks_3d.csv")), _columns(read_target_3d(out / "target_3d.csv"))
+    boxes, extra1 = _read_boxes(out / "tracks_2d", names)
+    target_boxes, extra2 = _read_boxes(out / "target_2d", names)
+    summary: dict = {}
+    sp = out / "summary.json"
+    if sp.is_file():
+        try:
+            summary = json.loads(sp.read_text())
+        except json.JSONDecodeError as exc:
+            raise InputError(f"not valid JSON: {exc.msg}", source=sp, line=exc.lineno) from None
+    return OutputFolder(out, tracks, boxes, target, target_boxes, names, summary, tuple(extra1 + extra2))

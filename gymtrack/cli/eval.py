@@ -1,0 +1,87 @@
+"""``gymtrack eval <routine> <out>``: score an output folder against the routine's ground truth.
+
+Paper: Section IV-A. The target gymnast's ID switches, AED, FR (Fig. 5) and coverage over its
+performing frames, the all-people MOTA and IDF1, and the target's pose metrics when both
+``<out>/poses_3d.csv`` and ``<routine>/gt/keypoints_3d.csv`` exist -- the numbers the benchmark
+computes, from the files of any run (:func:`gymtrack.eval.score.score_output`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from gymtrack.cli import app
+
+console = Console()
+
+
+def _f(v: float, fmt: str) -> str:
+    return "n/a" if v is None or (isinstance(v, float) and math.isnan(v)) else fmt.format(v)
+
+
+def _no_nan(v):
+    """NaN (a metric with nothing to average) as JSON null: NaN is not JSON."""
+    if isinstance(v, dict):
+        return {k: _no_nan(x) for k, x in v.items()}
+    if isinstance(v, list):
+        return [_no_nan(x) for x in v]
+    return None if isinstance(v, float) and math.isnan(v) else v
+
+
+def score_table(s: dict) -> Table:
+    """The scores of :func:`gymtrack.eval.score.score_output` as one table."""
+    t = Table(title=f"{s['out']} vs {s['routine']}/gt", title_justify="left")
+    t.add_column("metric")
+    t.add_column("value", justify="right")
+    t.add_column("detail")
+    g = s["target"]
+    t.add_row("target ID switches", str(g["id_switches"]),
+              f"{g['id_switches_track']} track id changes, {g['id_switches_person']} person changes")
+    t.add_row("target AED", _f(g["aed_m"], "{:.3f} m"), f"over {g['aed_frames']} frames")
+    t.add_row("target FR", _f(g["fr"], "{:.1%}"),
+              f"{g['fr_failures']} / {g['fr_evaluated']} boxes: {g['fr_missing']} missing, "
+              f"{g['fr_outside']} outside, {g['fr_too_small']} too small")
+    t.add_row("target coverage", _f(g["coverage"], "{:.1%}"), f"{g['covered_frames']} / {g['performing_frames']} performing frames")
+    p = s["people"]
+    if p is not None:
+        t.add_row("all people MOTA", _f(p["mota"], "{:.3f}"),
+                  f"{p['misses']} misses, {p['false_positives']} false positives, {p['id_switches']} switches, "
+                  f"{p['objects']} person-frames")
+        t.add_row("all people IDF1", _f(p["idf1"], "{:.3f}"), "")
+    q = s["poses"]
+    if q is not None:
+        t.add_row("target MPJPE", _f(q["mpjpe_mm"], "{:.0f} mm"), f"PA-MPJPE {_f(q['pa_mpjpe_mm'], '{:.0f} mm')}")
+        t.add_row("target PCK@150 mm", _f(q["pck"], "{:.1%}"), f"pose in {_f(q['pose_share'], '{:.1%}')} of performing frames")
+    return t
+
+
+@app.command("eval")
+def eval_cmd(
+    routine: Path = typer.Argument(..., help="routine folder with gt/ (persons_3d.csv, boxes_2d/)"),
+    out: Path = typer.Argument(..., help="output folder written by `gymtrack track --out`"),
+    as_json: bool = typer.Option(False, "--json", help="print the scores as JSON instead of a table"),
+    mot: bool = typer.Option(True, "--mot/--no-mot", help="also score all people (MOTA, IDF1; the slowest part)"),
+    calibration_format: Optional[str] = typer.Option(
+        None, "--calibration-format", help="native | anipose | easymocap | panoptic | wildtrack (default: from the file name)"
+    ),
+    units: Optional[str] = typer.Option(None, "--units", help="units of an aniposelib / EasyMocap calibration: m | cm | mm"),
+) -> None:
+    """Score an output folder against the routine's ground truth (target and all people)."""
+    from gymtrack.eval.score import score_output
+
+    opts = {} if units is None else {"units": units}
+    s = score_output(routine, out, mot=mot, calibration_format=calibration_format, **opts)
+    if as_json:
+        s = {k: v for k, v in s.items() if k != "row"}
+        typer.echo(json.dumps(_no_nan(s), indent=2))
+        return
+    console.print(score_table(s))
+    for note in s["notes"]:
+        console.print(f"note: {note}", highlight=False)
