@@ -144,13 +144,17 @@ def _read_csv(path: Path, columns: tuple[str, ...]) -> dict[str, np.ndarray]:
 class OutputColumns:
     """3D points read back from ``tracks_3d.csv`` or ``target_3d.csv``.
 
-    frame (N,) int64, track_id (N,) int64, xyz (N, 3) metres, source (N,) str.
+    frame (N,) int64, track_id (N,) int64, xyz (N, 3) metres, source (N,) str; for
+    ``tracks_3d.csv`` also top_z, bottom_z (N,) metres and n_views (N,) int64 (None for the target).
     """
 
     frame: np.ndarray
     track_id: np.ndarray
     xyz: np.ndarray
     source: np.ndarray
+    top_z: np.ndarray | None = None
+    bottom_z: np.ndarray | None = None
+    n_views: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.frame)
@@ -177,7 +181,7 @@ class OutputFolder:
 
 
 def _columns(d: dict) -> OutputColumns:
-    return OutputColumns(d["frame"], d["track_id"], d["xyz"], d["source"])
+    return OutputColumns(d["frame"], d["track_id"], d["xyz"], d["source"], d.get("top_z"), d.get("bottom_z"), d.get("n_views"))
 
 
 def _read_boxes(folder: Path, names: tuple[str, ...]) -> tuple[Detections, list[Path]]:

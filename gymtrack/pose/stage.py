@@ -229,37 +229,26 @@ def _rig_boxes(boxes: Detections, rig: Rig) -> Detections:
 def read_track_result(out: str | Path, camera_names: Sequence[str]) -> TrackResult:
     """The outputs of ``gymtrack track`` read back from ``out`` (tracks, boxes, target, b_buf).
 
-    Raises InputError when ``out`` or one of its files is missing (naming it).
+    Reads with :func:`gymtrack.formats.outputs.read_outputs`; raises InputError when ``out`` or
+    one of its files is missing or malformed (naming it).
     """
-    from ..formats.motchallenge import read_detections
-    from ..formats.outputs import read_target_3d, read_tracks_3d
+    from ..formats.outputs import read_outputs
     from ..tracking.types import SOURCE_NAMES
 
     out = Path(out)
     if not out.is_dir():
         raise InputError("track output folder not found: run `gymtrack track <routine> --out <out>` first", source=out)
-    names = tuple(camera_names)
+    f = read_outputs(out, camera_names)
     code = {n: k for k, n in enumerate(SOURCE_NAMES)}
 
-    def src(col: np.ndarray, path: Path) -> np.ndarray:
+    def src(col: np.ndarray, name: str) -> np.ndarray:
         bad = [s for s in col if s not in code]
         if bad:
-            raise InputError(f"unknown source {bad[0]!r}", source=path, field="source")
+            raise InputError(f"unknown source {bad[0]!r}", source=out / name, field="source")
         return np.array([code[s] for s in col], np.int8)
 
-    tp, gp = out / "tracks_3d.csv", out / "target_3d.csv"
-    t = read_tracks_3d(tp)
-    g = read_target_3d(gp)
-    tracks = Tracks3D(t["frame"], t["track_id"], t["xyz"], t["top_z"], t["bottom_z"], src(t["source"], tp),
-                      t["n_views"].astype(np.int8))
-    target = Target(g["frame"], g["track_id"], g["xyz"], src(g["source"], gp))
-    boxes = []
-    for sub in ("tracks_2d", "target_2d"):
-        parts = []
-        for i, name in enumerate(names):
-            p = out / sub / f"{name}.txt"
-            if not p.is_file():
-                raise InputError(f"missing {sub}/{name}.txt of the track outputs", source=p)
-            parts.append(read_detections(p, i, names)[0])
-        boxes.append(Detections.concat(parts).sorted())
-    return TrackResult(tracks, boxes[0], target, boxes[1], names, mode="read")
+    t, g = f.tracks, f.target
+    tracks = Tracks3D(t.frame, t.track_id, t.xyz, t.top_z, t.bottom_z, src(t.source, "tracks_3d.csv"),
+                      t.n_views.astype(np.int8))
+    target = Target(g.frame, g.track_id, g.xyz, src(g.source, "target_3d.csv"))
+    return TrackResult(tracks, f.boxes, target, f.target_boxes, f.camera_names, mode="read")
