@@ -24,7 +24,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Literal
 
-import numpy as np
 
 ApparatusName = Literal[
     "balance_beam", "pommel_horse", "vault", "still_rings", "horizontal_bar", "uneven_bars", "parallel_bars"

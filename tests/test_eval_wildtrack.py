@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from conftest import WILDTRACK, needs_wildtrack
 from gymtrack.detections import Detections
