@@ -110,6 +110,11 @@ class Scene(_Strict):
     planes: tuple[PlaneSpec, ...] = ()
     target: TargetSpec = TargetSpec()
     params: Params = Params()
+    first_frame: int = Field(1, ge=0, description="frame number of the first frame of every video (videos/<camera>.*)")
+    video_offsets: dict[str, int] = Field(
+        default_factory=dict, description="camera -> frames: file frame k of that camera's video is frame "
+        "first_frame + k - offset (a camera that started recording n frames early has offset n)"
+    )
 
     @model_validator(mode="before")
     @classmethod
@@ -166,6 +171,8 @@ class Scene(_Strict):
     def to_yaml_dict(self) -> dict:
         """The plain mapping ``scene.yaml`` holds (:func:`gymtrack.formats.scene.save_scene` writes it)."""
         d = self.model_dump(mode="json")
+        if d["first_frame"] == 1 and not d["video_offsets"]:  # files without videos stay as they were
+            del d["first_frame"], d["video_offsets"]
         return d
 
 

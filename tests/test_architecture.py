@@ -38,6 +38,7 @@ LAYERS: dict[str, int] = {
     "tracking": 3,
     "simulate": 3,
     "pose": 4,
+    "models": 4,
     "eval": 5,
     "cli": 6,
 }

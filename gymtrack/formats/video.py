@@ -1,0 +1,299 @@
+"""Videos of a routine folder: ``videos/<camera>.<ext>``, read by frame number with PyAV.
+
+Paper: Section III-A and III-D -- the detector runs on every frame of every view and the pose
+model on crops of ``b_buf`` taken from the full-resolution frame; both need the frames of the
+synchronised cameras by frame number. Frame ``k`` (0-based) of a camera's file is frame
+``first_frame + k - offset`` of the routine (``first_frame`` and ``video_offsets`` in
+``scene.yaml``; an offset of ``n`` means the camera started recording ``n`` frames earlier).
+
+:class:`VideoReader` is the one reader every command uses (threaded decoding, seeking by frame);
+:class:`VideoSet` reads the same frame of all cameras at once (one decoding thread per camera);
+:func:`write_video` writes frames (for tests and the simulator). Images are ``(H, W, 3)`` uint8
+BGR, as OpenCV has them. PyAV is the optional ``video`` extra and is imported lazily.
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import ThreadPoolExecutor
+from fractions import Fraction
+from pathlib import Path
+from typing import Iterable, Iterator, Mapping, Sequence
+
+import numpy as np
+
+from ..errors import InputError
+
+__all__ = ["VIDEO_EXTENSIONS", "VideoReader", "VideoSet", "find_videos", "open_videos", "write_video", "import_av"]
+
+#: Extensions looked for under ``videos/`` (in this order when a camera has several).
+VIDEO_EXTENSIONS: tuple[str, ...] = (".mp4", ".mkv", ".avi", ".mov", ".webm", ".m4v", ".mpg", ".ts")
+
+#: Frames a forward read decodes through before seeking instead (seeking costs a key-frame decode).
+_SEEK_AHEAD = 48
+
+
+def import_av():
+    """The ``av`` module, or an InputError naming the extra to install."""
+    try:
+        import av
+    except ImportError:  # pragma: no cover - the extra is installed in CI
+        raise InputError("reading or writing videos needs the 'video' extra: pip install 'gymtrack[video]'") from None
+    return av
+
+
+class VideoReader:
+    """One camera's video, read by routine frame number.
+
+    Parameters
+    ----------
+    path: the video file.
+    first_frame: routine frame number of the file's first frame (``scene.yaml`` ``first_frame``).
+    offset: the camera's ``video_offsets`` entry: file frame ``k`` is frame ``first_frame + k - offset``.
+    threads: decoder threads (0: FFmpeg chooses).
+
+    Attributes
+    ----------
+    frame_numbers: (n,) int64, the routine frame number of every frame of the file.
+    fps: frames per second (the stream's average rate).
+    size: (width, height) in pixels.
+    """
+
+    def __init__(self, path: str | Path, first_frame: int = 1, offset: int = 0, threads: int = 0) -> None:
+        av = import_av()
+        self.path = Path(path)
+        if not self.path.is_file():
+            raise InputError("video file not found", source=self.path)
+        try:
+            self._container = av.open(str(self.path))
+        except av.error.FFmpegError as exc:
+            raise InputError(f"not a video PyAV can open: {exc}", source=self.path) from None
+        if not self._container.streams.video:
+            self._container.close()
+            raise InputError("the file has no video stream", source=self.path)
+        self._stream = s = self._container.streams.video[0]
+        s.thread_type = "AUTO"  # frame and slice threads
+        s.thread_count = int(threads)
+        rate = s.average_rate or s.guessed_rate or s.base_rate
+        if not rate:
+            raise InputError("the video stream has no frame rate", source=self.path)
+        self._rate = Fraction(rate)
+        self._tb = Fraction(s.time_base)
+        self._start = int(s.start_time or 0)
+        self.fps = float(self._rate)
+        self.size = (int(s.codec_context.width), int(s.codec_context.height))
+        n = int(s.frames or 0) or self._count_frames()
+        self.first_frame = int(first_frame)
+        self.offset = int(offset)
+        self.frame_numbers = np.arange(n, dtype=np.int64) + (self.first_frame - self.offset)
+        self._decoder: Iterator | None = None
+        self._next_index = 0  # file index the open decoder yields next
+
+    def _count_frames(self) -> int:
+        """Frames of a file whose header does not say (Matroska...): count packets, no decoding."""
+        n = sum(1 for p in self._container.demux(self._stream) if p.size)
+        self._container.seek(0)
+        return n
+
+    def __len__(self) -> int:
+        return len(self.frame_numbers)
+
+    def __repr__(self) -> str:
+        fr = f"frames {self.frame_numbers[0]}..{self.frame_numbers[-1]}" if len(self) else "no frames"
+        return f"VideoReader({self.path.name}, {self.size[0]}x{self.size[1]}, {self.fps:g} fps, {fr})"
+
+    def index_of(self, frame: int) -> int:
+        """File index (0-based) of routine frame ``frame``; InputError when the file lacks it."""
+        k = int(frame) - (self.first_frame - self.offset)
+        if not 0 <= k < len(self):
+            raise InputError(
+                f"frame {frame} is not in the video (it holds frames {self.frame_numbers[0] if len(self) else '-'}"
+                f"..{self.frame_numbers[-1] if len(self) else '-'} with first_frame {self.first_frame}, offset {self.offset})",
+                source=self.path,
+            )
+        return k
+
+    def _index(self, av_frame) -> int:
+        if av_frame.pts is None:
+            return self._next_index
+        return int(round((av_frame.pts - self._start) * self._tb * self._rate))
+
+    def _seek(self, k: int) -> None:
+        pts = self._start + int((Fraction(k) / self._rate) / self._tb)
+        self._container.seek(pts, stream=self._stream, backward=True, any_frame=False)
+        self._decoder = self._container.decode(self._stream)
+        self._next_index = -1  # unknown until the first frame comes
+
+    def _read_index(self, k: int) -> np.ndarray:
+        if self._decoder is None or not (0 <= k - self._next_index <= _SEEK_AHEAD):
+            if k == 0 and self._decoder is None:
+                self._decoder = self._container.decode(self._stream)
+            else:
+                self._seek(k)
+        for f in self._decoder:
+            i = self._index(f)
+            self._next_index = i + 1
+            if i >= k:
+                if i > k:  # a file with a missing frame: say so rather than return a neighbour
+                    raise InputError(f"frame {self.frame_numbers[k]} (file index {k}) is missing from the stream",
+                                     source=self.path)
+                return f.to_ndarray(format="bgr24")
+        self._decoder = None
+        raise InputError(f"the stream ended before frame {self.frame_numbers[k]} (file index {k})", source=self.path)
+
+    def read(self, frame: int) -> np.ndarray:
+        """The image of routine frame ``frame``: (H, W, 3) uint8 BGR."""
+        return self._read_index(self.index_of(frame))
+
+    def __iter__(self) -> Iterator[tuple[int, np.ndarray]]:
+        """Every frame in order: ``(frame number, (H, W, 3) uint8 BGR)``."""
+        return self.iter_frames()
+
+    def iter_frames(self, start: int | None = None, stop: int | None = None) -> Iterator[tuple[int, np.ndarray]]:
+        """Frames ``start..stop`` (routine numbers, inclusive; default: the whole file) in order."""
+        if not len(self):
+            return
+        lo = self.frame_numbers[0] if start is None else max(int(start), int(self.frame_numbers[0]))
+        hi = self.frame_numbers[-1] if stop is None else min(int(stop), int(self.frame_numbers[-1]))
+        for fr in range(int(lo), int(hi) + 1):
+            yield fr, self.read(fr)
+
+    def close(self) -> None:
+        self._decoder = None
+        self._container.close()
+
+    def __enter__(self) -> "VideoReader":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def find_videos(routine_folder: str | Path, camera_names: Sequence[str]) -> dict[str, Path]:
+    """``videos/<camera>.<ext>`` of the cameras that have one (camera name -> path).
+
+    Raises InputError when ``videos/`` holds a video named after no camera (a typo would
+    otherwise drop a view silently) or two videos for one camera.
+    """
+    folder = Path(routine_folder) / "videos"
+    if not folder.is_dir():
+        return {}
+    found: dict[str, Path] = {}
+    for p in sorted(folder.iterdir()):
+        if not p.is_file() or p.suffix.lower() not in VIDEO_EXTENSIONS:
+            continue
+        if p.stem not in camera_names:
+            raise InputError(f"video of camera {p.stem!r}, which the calibration does not have "
+                             f"(its cameras: {', '.join(camera_names)}): rename or remove it", source=p)
+        if p.stem in found:
+            raise InputError(f"two videos for camera {p.stem!r} ({found[p.stem].name} and {p.name}): keep one", source=p)
+        found[p.stem] = p
+    return {n: found[n] for n in camera_names if n in found}
+
+
+class VideoSet:
+    """The videos of several cameras read together, one decoding thread per camera.
+
+    ``readers`` in rig order (None for a camera without a video). :meth:`read` returns one image
+    per camera (None where the camera has no video or not that frame).
+    """
+
+    def __init__(self, readers: Sequence[VideoReader | None], camera_names: Sequence[str]) -> None:
+        self.readers = list(readers)
+        self.camera_names = tuple(camera_names)
+        self._pool = ThreadPoolExecutor(max_workers=max(1, sum(r is not None for r in self.readers)))
+
+    @property
+    def frame_numbers(self) -> np.ndarray:
+        """(F,) int64, the frames at least one camera's video holds, increasing."""
+        parts = [r.frame_numbers for r in self.readers if r is not None]
+        return np.unique(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
+
+    def _one(self, r: VideoReader | None, frame: int) -> np.ndarray | None:
+        if r is None or not len(r) or not r.frame_numbers[0] <= frame <= r.frame_numbers[-1]:
+            return None
+        return r.read(frame)
+
+    def read(self, frame: int) -> list[np.ndarray | None]:
+        """Frame ``frame`` of every camera: a list of (H, W, 3) uint8 BGR or None, rig order."""
+        return list(self._pool.map(lambda r: self._one(r, frame), self.readers))
+
+    def iter_frames(self, frames: Iterable[int] | None = None) -> Iterator[tuple[int, list[np.ndarray | None]]]:
+        """``(frame, images)`` for ``frames`` (default: :attr:`frame_numbers`), the next frame
+        decoded while the caller works on this one."""
+        todo = [int(f) for f in (self.frame_numbers if frames is None else frames)]
+        if not todo:
+            return
+        with ThreadPoolExecutor(max_workers=1) as ahead:
+            nxt = ahead.submit(self.read, todo[0])
+            for i, fr in enumerate(todo):
+                images = nxt.result()
+                if i + 1 < len(todo):
+                    nxt = ahead.submit(self.read, todo[i + 1])
+                yield fr, images
+
+    def close(self) -> None:
+        self._pool.shutdown(wait=True)
+        for r in self.readers:
+            if r is not None:
+                r.close()
+
+    def __enter__(self) -> "VideoSet":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def open_videos(routine_folder: str | Path, camera_names: Sequence[str], first_frame: int = 1,
+                video_offsets: Mapping[str, int] | None = None, required: bool = True) -> VideoSet:
+    """A :class:`VideoSet` of a routine's ``videos/`` (``first_frame``/``video_offsets`` as in scene.yaml).
+
+    ``required``: raise InputError naming the cameras without a video; otherwise they read None.
+    An offset for a camera the rig lacks is an error (a typo would silently leave a view unsynchronised).
+    """
+    offsets = dict(video_offsets or {})
+    for cam in offsets:
+        if cam not in camera_names:
+            raise InputError(f"offset for camera {cam!r}, which the calibration does not have", source="scene.yaml",
+                             field=f"video_offsets.{cam}")
+    paths = find_videos(routine_folder, camera_names)
+    missing = [n for n in camera_names if n not in paths]
+    if required and missing:
+        raise InputError(f"no video for camera(s) {', '.join(missing)}: add videos/<camera>.mp4 (any container "
+                         f"PyAV reads: {', '.join(VIDEO_EXTENSIONS)})", source=Path(routine_folder) / "videos")
+    readers = [VideoReader(paths[n], first_frame, offsets.get(n, 0)) if n in paths else None for n in camera_names]
+    return VideoSet(readers, camera_names)
+
+
+def write_video(path: str | Path, frames: Iterable[np.ndarray], fps: float, codec: str | None = None,
+                options: Mapping[str, str] | None = None) -> int:
+    """Write ``(H, W, 3)`` uint8 BGR ``frames`` as a video; returns the number of frames written.
+
+    codec: default ``libx264`` (yuv420p, crf 18; even sizes) for ``.mp4``/``.mov``, ``ffv1``
+    (lossless, bgr0) for ``.mkv``/``.avi`` -- tests that check pixels use ``.mkv``.
+    """
+    av = import_av()
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    lossless = path.suffix.lower() in (".mkv", ".avi")
+    codec = codec or ("ffv1" if lossless else "libx264")
+    rate = Fraction(fps).limit_denominator(1001)
+    n = 0
+    with av.open(str(path), mode="w") as out:
+        stream = out.add_stream(codec, rate=rate, options=dict(options or ({"crf": "18"} if codec == "libx264" else {})))
+        stream.pix_fmt = "bgr0" if codec == "ffv1" else "yuv420p"
+        for img in frames:
+            img = np.ascontiguousarray(img, dtype=np.uint8)
+            if img.ndim != 3 or img.shape[2] != 3:
+                raise ValueError(f"write_video needs (H, W, 3) uint8 BGR frames, got shape {img.shape}")
+            if n == 0:
+                stream.width, stream.height = img.shape[1], img.shape[0]
+            frame = av.VideoFrame.from_ndarray(img, format="bgr24")
+            frame.pts = n
+            frame.time_base = 1 / rate
+            for packet in stream.encode(frame):
+                out.mux(packet)
+            n += 1
+        for packet in stream.encode():
+            out.mux(packet)
+    return n

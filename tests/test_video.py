@@ -1,0 +1,106 @@
+"""Videos: frame numbering with first_frame and offsets, seeking, find_videos, VideoSet, scene keys."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytest.importorskip("av")
+
+from gymtrack.errors import InputError  # noqa: E402
+from gymtrack.formats.scene import scene_from_dict  # noqa: E402
+from gymtrack.formats.video import VideoReader, VideoSet, find_videos, open_videos, write_video  # noqa: E402
+
+
+def numbered(n: int, h: int = 48, w: int = 64, base: int = 0, gray: bool = False, step: int = 2):
+    """Frame i: a flat image whose blue channel (all channels with ``gray``) is (base + i) * step,
+    and a red square at its top-left."""
+    for i in range(n):
+        img = np.zeros((h, w, 3), np.uint8)
+        img[..., slice(None) if gray else 0] = ((base + i) * step) % 256
+        img[:8, :8] = (0, 0, 255)
+        yield img
+
+
+def frame_code(img: np.ndarray) -> int:
+    return int(round(float(img[20:, 20:, 0].mean()) / 2))
+
+
+@pytest.fixture
+def mkv(tmp_path):
+    p = tmp_path / "cam0.mkv"
+    assert write_video(p, numbered(40), fps=25) == 40
+    return p
+
+
+def test_numbering_and_random_seeks(mkv):
+    r = VideoReader(mkv, first_frame=10, offset=3)
+    assert len(r) == 40 and r.size == (64, 48) and r.fps == 25
+    assert r.frame_numbers[0] == 7 and r.frame_numbers[-1] == 46
+    for fr in (7, 30, 8, 46, 45, 12, 12, 40, 7):  # backwards, forwards, repeats
+        img = r.read(fr)
+        assert img.shape == (48, 64, 3) and img.dtype == np.uint8
+        assert frame_code(img) == fr - 7
+    assert tuple(r.read(7)[2, 2]) == (0, 0, 255)  # BGR order: red is the last channel
+    with pytest.raises(InputError, match="frame 47 is not in the video"):
+        r.read(47)
+    with pytest.raises(InputError, match="frame 6 "):
+        r.read(6)
+
+
+def test_iteration_in_order(mkv):
+    with VideoReader(mkv) as r:
+        got = [(f, frame_code(im)) for f, im in r]
+        assert got == [(k + 1, k) for k in range(40)]
+        assert [f for f, _ in r.iter_frames(38, 100)] == [38, 39, 40]
+
+
+def test_mp4_lossy_still_numbered(tmp_path):
+    p = tmp_path / "cam1.mp4"
+    write_video(p, numbered(30, base=3, gray=True, step=7), fps=30)
+    r = VideoReader(p)
+    assert len(r) == 30
+    for fr in (1, 29, 3, 17, 16):  # H.264 with B-frames: seeks land on key frames and decode forward
+        level = float(r.read(fr)[20:, 20:].mean())  # lossy and colour-converted: within 3 levels
+        assert abs(level - 7 * (fr + 2)) < 3.5  # neighbours are 7 levels apart
+
+
+def test_find_videos_and_offsets(tmp_path):
+    (tmp_path / "videos").mkdir()
+    write_video(tmp_path / "videos" / "a.mkv", numbered(10), 30)
+    write_video(tmp_path / "videos" / "b.mkv", numbered(10, base=50), 30)
+    (tmp_path / "videos" / "notes.txt").write_text("ignored: not a video extension")
+    assert list(find_videos(tmp_path, ["b", "a", "c"])) == ["b", "a"]
+    with open_videos(tmp_path, ["a", "b", "c"], first_frame=1, video_offsets={"b": 2}, required=False) as vs:
+        assert list(vs.frame_numbers) == list(range(-1, 11))
+        imgs = vs.read(1)
+        assert frame_code(imgs[0]) == 0 and frame_code(imgs[1]) == 52 and imgs[2] is None
+        assert vs.read(10)[1] is None and vs.read(-1)[0] is None
+        seen = [(f, [None if i is None else frame_code(i) for i in ims]) for f, ims in vs.iter_frames([3, 4])]
+        assert seen == [(3, [2, 54, None]), (4, [3, 55, None])]
+    with pytest.raises(InputError, match="no video for camera.*c"):
+        open_videos(tmp_path, ["a", "b", "c"])
+    with pytest.raises(InputError, match="video_offsets.zz"):
+        open_videos(tmp_path, ["a", "b"], video_offsets={"zz": 1})
+    write_video(tmp_path / "videos" / "typo.mkv", numbered(2), 30)
+    with pytest.raises(InputError, match="typo.*calibration does not have"):
+        find_videos(tmp_path, ["a", "b"])
+
+
+def test_not_a_video(tmp_path):
+    p = tmp_path / "x.mp4"
+    p.write_text("not a video")
+    with pytest.raises(InputError, match="x.mp4"):
+        VideoReader(p)
+    with pytest.raises(InputError, match="not found"):
+        VideoReader(tmp_path / "missing.mp4")
+
+
+def test_scene_video_keys():
+    s = scene_from_dict({"apparatus": "vault"})
+    assert s.first_frame == 1 and s.video_offsets == {}
+    assert "first_frame" not in s.to_yaml_dict()
+    s = scene_from_dict({"apparatus": "vault", "first_frame": 0, "video_offsets": {"cam1": -4}})
+    assert s.video_offsets == {"cam1": -4} and s.to_yaml_dict()["first_frame"] == 0
+    with pytest.raises(InputError, match="video_offsets"):
+        scene_from_dict({"apparatus": "vault", "video_offsets": {"cam1": "x"}})
