@@ -163,7 +163,7 @@ def overlay_frames(inputs: OverlayInputs, cameras: Sequence[int] | None = None, 
     th = max(int(round(r.rig[c].size[1] * s)) for c, s in zip(cams, scale))
     th += th % 2
     idx = _indices(inputs)
-    first, offsets = getattr(r.scene, "first_frame", 1), getattr(r.scene, "video_offsets", None) or {}
+    first, offsets = r.scene.first_frame, r.scene.video_offsets
     readers = [VideoReader(inputs.videos[n], first, int(offsets.get(n, 0))) if n in inputs.videos else None
                for n in (r.camera_names[c] for c in cams)]
     videos = VideoSet(readers, [r.camera_names[c] for c in cams])

@@ -247,7 +247,7 @@ def write_recording(routine: str | Path, out: str | Path, rrd: str | Path, video
     rec.save(str(rrd))
     say = progress or (lambda _msg: None)
     _log_static_scene(rec, rr, r.scene)
-    first, offsets = getattr(r.scene, "first_frame", 1), getattr(r.scene, "video_offsets", None) or {}
+    first, offsets = r.scene.first_frame, r.scene.video_offsets
     video_entities = _log_cameras(rec, rr, r.rig, inputs.videos if videos else {}, first, offsets)
     say(f"cameras: {len(r.rig)}, videos: {len(video_entities)}")
     gt = _log_gt(rec, rr, r.path, r.camera_names)
