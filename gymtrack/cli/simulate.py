@@ -3,6 +3,8 @@
 * ``gymtrack simulate --apparatus A --n-cam {2,3,4} --seed N [--seconds S] --out DIR [--plot]``
   writes one routine folder (``shared/formats.md``): cameras.yaml, scene.yaml,
   detections/<camera>.txt and gt/. The same seed gives the same files bit for bit.
+  ``--video [--video-size W]`` also renders ``videos/<camera>.mp4`` (:mod:`gymtrack.simulate.render`);
+  the other files do not change.
 * ``gymtrack simulate-suite --per-apparatus K --out DIR [--seconds S] [--seed N]`` writes the
   7 apparatus x K routines x n_cam 2, 3, 4 grid as ``DIR/<apparatus>/ncam<n>/r<k>/`` and an index
   ``DIR/suite.json`` (path, apparatus, n_cam, seed of every routine).

@@ -133,6 +133,7 @@ def background(vc: ViewCanvas, app: Apparatus) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         d = -C[2] / ray[..., 2]
     floor = (ray[..., 2] < 0) & (d * np.linalg.norm(ray, axis=-1) < 80.0)
+    d = np.where(floor, d, 0.0)  # rays that miss the floor: any finite value, they are masked
     x, y = C[0] + d * ray[..., 0], C[1] + d * ray[..., 1]
     s = np.asarray(app.performance_space)
     img = np.empty((ch, cw, 3), np.float32)
@@ -268,6 +269,8 @@ def render_view(sim, camera: int, width: int | None = None) -> Iterator[np.ndarr
     The static scene is drawn undistorted and remapped once; people and bars are drawn straight
     between their distorted end points (parts are short: the bend a lens gives them is far
     below a pixel at these distortions)."""
+    if sim.body_points is None:
+        raise ValueError("render_view needs a SimulatedRoutine with body_points (simulate_routine keeps them)")
     cam = sim.rig[camera]
     vc = view_canvas(cam, width)
     bg = background(vc, sim.app)
