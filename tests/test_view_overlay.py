@@ -63,7 +63,7 @@ def test_camera_poses_match_the_calibration(demo, recording):
 
 
 def test_every_3d_track_and_box_is_in_the_recording(demo, recording):
-    sim, routine, out = demo
+    sim, _, out = demo
     o = read_outputs(out, sim.rig.names)
     got = _rows(recording, "/world/tracks", "Points3D:positions")
     labels = dict(zip(recording["/world/tracks"]["frame"], recording["/world/tracks"]["Points3D:labels"]))
@@ -87,7 +87,7 @@ def test_every_3d_track_and_box_is_in_the_recording(demo, recording):
 
 
 def test_target_skeleton_keypoints_ground_truth_and_videos(demo, recording):
-    sim, _, out = demo
+    sim = demo[0]
     perf = np.flatnonzero(sim.performing)
     tgt = _rows(recording, "/world/target", "Points3D:positions")
     assert sorted(tgt) == sim.frames[perf].tolist()
@@ -170,7 +170,7 @@ def test_overlay_draws_the_box_edges_in_the_id_colour(demo, tmp_path, with_video
 def test_overlay_one_camera_and_unknown_camera(demo, tmp_path):
     from gymtrack.formats.video import VideoReader
 
-    sim, routine, out = demo
+    _, routine, out = demo
     video = tmp_path / "cam1.mp4"
     r = CliRunner().invoke(app, ["overlay", str(routine), str(out), "--camera", "cam1", "-o", str(video),
                                  "--start", "100", "--stop", "109"])

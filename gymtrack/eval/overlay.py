@@ -118,13 +118,13 @@ class _Index:
         return self.order[np.searchsorted(self.key, k):np.searchsorted(self.key, k, side="right")]
 
 
-def draw_view(img: np.ndarray, s: float, frame: int, camera: int, inputs: OverlayInputs, _idx: dict | None = None) -> None:
+def draw_view(img: np.ndarray, s: float, frame: int, camera: int, inputs: OverlayInputs, index: dict | None = None) -> None:
     """Draw one view's overlay of ``frame`` on ``img`` (in place); ``s``: image pixels per camera pixel.
 
     Order (bottom to top): raw detections (thin grey), the 3D tracks' boxes (id colour, labelled),
     the skeletons, ``b_buf`` (yellow)."""
     o = inputs.outputs
-    idx = _idx if _idx is not None else _indices(inputs)
+    idx = index if index is not None else _indices(inputs)
     dets = inputs.routine.detections
     _boxes(img, dets, idx["det"].rows(frame, camera), s, DETECTION, 1)
     _boxes(img, o.boxes, idx["box"].rows(frame, camera), s, None, 2, labels=True)

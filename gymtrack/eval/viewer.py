@@ -224,7 +224,7 @@ def _log_gt(rec, rr, routine_path: Path, camera_names) -> object | None:
         from ..formats.gt_keypoints import read_keypoints_3d
         from ..skeletons import COCO17
 
-        frames, pids, joints = read_keypoints_3d(kp)
+        frames, _, joints = read_keypoints_3d(kp)
         P, T = joints.shape[:2]
         flat = joints.reshape(P * T, 17, 3)
         seg, row = _bone_strips(flat, COCO17.bones, np.all(np.isfinite(flat), -1))
