@@ -1,0 +1,38 @@
+"""Compiled (numba) kernels of the tracker's small per-frame and per-window loops, one module per stage.
+
+Paper: no method of its own; these are the hot loops of Section III-A (:mod:`.single_view`,
+:mod:`.windows`), III-B (:mod:`.clustering`: Eq. 2, Algorithm 1; :mod:`.reconstruct`: Eq. 3-4;
+:mod:`.linking`: Eq. 10), III-C (:mod:`.plane`: Eq. 5-9) and III-D (:mod:`.target`: Eq. 14),
+written as plain loops over the scalar primitives of :mod:`gymtrack.geometry.primitives`.
+The arrays of one frame or window are small (tens of boxes, tracklets of 10 frames), so
+numpy's per-call overhead dominated the vectorised versions; each kernel replaces a dozen or
+more numpy calls by one call.
+
+Every kernel computes what its numpy reference in ``tests/reference/`` computes (the tests
+compare them on random inputs): the same comparisons, tie-breaking and NaN rules, so
+identifiers and counts never change; floating-point results are the same up to rounding where
+the reference sums in a different order (matrix products).
+
+Compiled with ``cache=True`` (later processes load the machine code from numba's cache, next
+to these files or in ``NUMBA_CACHE_DIR``). Each module's ``warm_up`` compiles or loads its
+kernels by running them on a tiny real scene (:mod:`.sample`); :func:`warm_up` runs them all,
+once per process, and the :class:`~gymtrack.tracking.tracker.Tracker` calls it when it is
+constructed, so that compilation is never counted as tracking time.
+"""
+
+from __future__ import annotations
+
+from . import clustering, linking, plane, reconstruct, single_view, target, windows
+
+_WARM = False
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's cache) every kernel with the argument types the tracker
+    uses; once per process, a few milliseconds when cached."""
+    global _WARM
+    if _WARM:
+        return
+    for module in (single_view, windows, clustering, reconstruct, linking, plane, target):
+        module.warm_up()
+    _WARM = True
