@@ -12,8 +12,9 @@ sys.path.insert(0, str(Path(__file__).parent))
 from test_tracking_synth import ring_rig  # noqa: E402
 
 from gymtrack.geometry.epipolar import epipolar_distance, fundamental_matrices  # noqa: E402
-from gymtrack.tracking.clustering import complete_linkage, complete_linkage_sequential, tracklet_distances  # noqa: E402
+from gymtrack.tracking.clustering import complete_linkage, tracklet_distances  # noqa: E402
 from gymtrack.tracking.types import WindowTracklets  # noqa: E402
+from reference.clustering import complete_linkage_sequential  # noqa: E402
 
 INF, NAN = np.inf, np.nan
 

@@ -230,3 +230,39 @@ def triangulate_points(P, u, v, mask, iterations):
         X[0, n], X[1, n], X[2, n] = X0, X1, X2
         err[n] = np.sqrt(old / nv)
     return X, err
+
+
+# ----------------------------------------------------------------------------- loops of the public API
+@njit(cache=True)
+def rays_plane(o, d, point, normal, min_cos):
+    """Eq. 7 for N rays (:func:`.plane.intersect_rays_plane`): origins o (N, 3), directions
+    d (N, 3), the plane's point and unit normal (3,) -> X (N, 3) (NaN unless hit), status (N,) int8."""
+    N = o.shape[0]
+    X = np.empty((N, 3))
+    status = np.empty(N, np.int8)
+    for i in range(N):
+        d0, d1, d2 = d[i, 0], d[i, 1], d[i, 2]
+        num = plane_offset(point[0], point[1], point[2], normal[0], normal[1], normal[2], o[i, 0], o[i, 1], o[i, 2])
+        status[i], X[i, 0], X[i, 1], X[i, 2] = ray_plane(o[i, 0], o[i, 1], o[i, 2], d0, d1, d2,
+                                                         np.sqrt(d0 * d0 + d1 * d1 + d2 * d2), num, normal[0],
+                                                         normal[1], normal[2], min_cos)
+    return X, status
+
+
+@njit(cache=True, error_model="numpy")
+def box_distances(box_i, box_j, F, Ft):
+    """Eq. 1 for N pairs of boxes (:func:`.epipolar.epipolar_distance`): box_i, box_j (N, 4)
+    centre-form, F (N, 1, 3, 3) mapping view i to view j and Ft (N, 1, 3, 3) its transposes
+    -> (N,); NaN where an epipolar line is undefined (zero F, or a point on the epipole)."""
+    N = box_i.shape[0]
+    out = np.empty(N)
+    for n in range(N):
+        xi0, xi1, xi2 = scaled_centre(box_i[n, 0], box_i[n, 1], box_i[n, 2], box_i[n, 3])
+        xj0, xj1, xj2 = scaled_centre(box_j[n, 0], box_j[n, 1], box_j[n, 2], box_j[n, 3])
+        a0, a1, a2 = epipolar_line(F, n, 0, xi0, xi1, xi2)  # of x_i, in view j
+        b0, b1, b2 = epipolar_line(Ft, n, 0, xj0, xj1, xj2)  # of x_j, in view i
+        if (a0 == 0 and a1 == 0) or (b0 == 0 and b1 == 0):
+            out[n] = _NAN
+        else:
+            out[n] = line_distance(xi0, xi1, xi2, b0, b1, b2) + line_distance(xj0, xj1, xj2, a0, a1, a2)
+    return out

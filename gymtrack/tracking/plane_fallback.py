@@ -4,8 +4,8 @@ Segments the triangulation stage could not use -- clusters of a single tracklet,
 two tracklets from opposite views -- are each projected onto the scene's vertical plane: the
 ray through every box centre (Eq. 5-6, :func:`gymtrack.geometry.primitives.ray_direction`, the
 rays of :meth:`Camera.rays`) is intersected with the plane (Eq. 7,
-:func:`gymtrack.geometry.primitives.ray_plane`, as :func:`gymtrack.geometry.plane.intersect_rays_plane`), giving one 3D tracklet
-candidate per segment. Candidates of different views are matched with Algorithm 1 on their
+:func:`gymtrack.geometry.primitives.ray_plane`, as in :func:`gymtrack.geometry.plane.intersect_rays_plane`),
+giving one 3D tracklet candidate per segment. Candidates of different views are matched with Algorithm 1 on their
 mean 3D distance over shared frames (Eq. 8, threshold ``cluster_plane``); matched candidates
 are fused by averaging (Eq. 9); a candidate without a partner from another view is discarded.
 The box top-centre and bottom-centre rays, intersected with the same plane, give the heights

@@ -1,9 +1,9 @@
 """3D tracklets by triangulation, and the outlier test (paper Section III-B, Eq. 3-4).
 
 A cluster of 2D segments (at most one per view) is triangulated frame by frame from the views
-whose segment is valid at that frame (Eq. 3, the arithmetic of :func:`gymtrack.geometry.triangulation.triangulate_views`
-compiled as :func:`gymtrack.geometry.primitives.triangulate_points`, one call for the centres, box tops and box
-bottoms of every cluster and frame of a window). The box top-centre and bottom-centre points give the heights of the body's top and
+whose segment is valid at that frame (Eq. 3, :func:`gymtrack.geometry.primitives.triangulate_points`,
+the solver of :func:`gymtrack.geometry.triangulation.triangulate`: one call for the centres, box
+tops and box bottoms of every cluster and frame of a window). The box top-centre and bottom-centre points give the heights of the body's top and
 bottom (used to identify the target, Eq. 13).
 
 The cascade (Section III-C) needs to know which two-view clusters are "opposite": their lines

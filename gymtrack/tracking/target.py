@@ -528,6 +528,7 @@ def buffered_boxes(
         np.ascontiguousarray(bottom_z, dtype=np.float64), np.ascontiguousarray(wh, dtype=np.float64),
         np.ascontiguousarray(across), float(memory.get("half_length", BODY_HALF_DEPTH)),
         rig.arrays,
-        BodyBox(float(box_scale), BODY_HALF_DEPTH, normal is None, MIN_LENGTH_COS, MIN_HALF_LENGTH, DEFAULT_HALF_HEIGHT))
+        BodyBox(float(box_scale), BODY_HALF_DEPTH, normal is None, MIN_LENGTH_COS, MIN_HALF_LENGTH,
+                DEFAULT_HALF_HEIGHT))
     memory["half_length"] = float(last)
     return box, ok
