@@ -13,6 +13,7 @@ from scipy.optimize import linear_sum_assignment
 from conftest import points_seen_by, random_rig
 from gymtrack.geometry.epipolar import epipolar_distance, fundamental_matrices
 from gymtrack.geometry.primitives import triangulate_points
+from gymtrack.geometry.triangulation import triangulate_views as triangulate_views_numpy
 from gymtrack.tracking._kernels import windows as window_kernels
 from gymtrack.tracking.clustering import complete_linkage, tracklet_distances
 from gymtrack.tracking.linking import link_distances
@@ -25,7 +26,6 @@ from reference.linking import link_distances_numpy
 from reference.plane import candidate_distances, candidate_distances_numpy
 from reference.reconstruct import outliers_numpy, triangulate_clusters_numpy
 from reference.single_view import IoUTrackerNumpy
-from reference.triangulation import triangulate_views as triangulate_views_numpy
 from reference.windows import fill_missing as fill_missing_numpy
 
 

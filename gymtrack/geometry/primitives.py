@@ -6,9 +6,13 @@ Paper: Eq. 1 (:func:`scaled_centre`, :func:`epipolar_line`, :func:`line_distance
 of Section III-B / Eq. 14 (:func:`project_point`).
 
 Plain scalar functions (``inline="always"``): the tracker's kernels call them inside their
-loops, and the public numpy-facing API of :mod:`gymtrack.geometry` (:func:`.plane.intersect_rays_plane`,
-:func:`.epipolar.epipolar_distance`, :func:`.triangulation.triangulate_views`) runs the same
-code through the small loops at the end of this module. Cameras are indexed in the stacked
+loops, and the public API of :mod:`gymtrack.geometry` runs the same code through the small
+loops at the end of this module (:func:`.plane.intersect_rays_plane` for Eq. 7,
+:func:`.epipolar.epipolar_distance` for Eq. 1). Not (yet) :func:`.triangulation.triangulate`:
+its batched numpy Gauss-Newton and the per-point :func:`triangulate_points` agree to ~1e-8 m
+only (accept / reject decisions of nearly equal steps), and the MvPT baseline's output must not
+move; nor :meth:`.camera.Camera.project`, which the simulator uses (``r2 ** 3`` rounds
+differently from numpy's ``pow``). Cameras are indexed in the stacked
 arrays of :class:`~.arrays.RigArrays` (``R[c]``...), so a kernel never slices per call.
 """
 
@@ -266,3 +270,12 @@ def box_distances(box_i, box_j, F, Ft):
         else:
             out[n] = line_distance(xi0, xi1, xi2, b0, b1, b2) + line_distance(xj0, xj1, xj2, a0, a1, a2)
     return out
+
+
+def warm_up() -> None:
+    """Compile (or load from numba's cache) the loops of the public API (the tracker's kernels
+    compile the scalar primitives with themselves)."""
+    box = np.array([[960.0, 540.0, 60.0, 150.0]])
+    F = np.array([[[[0.0, -1e-6, 1e-3], [1e-6, 0.0, -2e-3], [-1e-3, 2e-3, 1.0]]]])
+    box_distances(box, box, F, np.ascontiguousarray(np.swapaxes(F, -1, -2)))
+    rays_plane(np.zeros((1, 3)), np.ones((1, 3)), np.ones(3), np.array([1.0, 0.0, 0.0]), 1e-3)

@@ -1,14 +1,14 @@
 """Numpy references of the triangulation stage's kernels (paper Section III-B, Eq. 3-4):
 the outlier test and the gathering of a window's cluster pixels, triangulated with the batched
-numpy solver :func:`reference.triangulation.triangulate_views`."""
+numpy solver :func:`gymtrack.geometry.triangulation.triangulate_views`."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from gymtrack.geometry.triangulation import triangulate_views as triangulate_views_numpy
 from gymtrack.tracking.reconstruct import GN_ITERATIONS
 
-from .triangulation import triangulate_views as triangulate_views_numpy
 
 
 def outliers_numpy(xyz, valid, space, max_speed):

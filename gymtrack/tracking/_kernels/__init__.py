@@ -15,13 +15,15 @@ the reference sums in a different order (matrix products).
 
 Compiled with ``cache=True`` (later processes load the machine code from numba's cache, next
 to these files or in ``NUMBA_CACHE_DIR``). Each module's ``warm_up`` compiles or loads its
-kernels by running them on a tiny real scene (:mod:`.sample`); :func:`warm_up` runs them all,
-once per process, and the :class:`~gymtrack.tracking.tracker.Tracker` calls it when it is
-constructed, so that compilation is never counted as tracking time.
+kernels by running them on a tiny real scene (:mod:`.sample`); :func:`warm_up` runs them all
+(and the loops of the public geometry API the MvPT baseline uses), once per process. The
+:class:`~gymtrack.tracking.tracker.Tracker` calls it when it is constructed, so that
+compilation is never counted as tracking time.
 """
 
 from __future__ import annotations
 
+from ...geometry import primitives
 from . import clustering, linking, plane, reconstruct, single_view, target, windows
 
 _WARM = False
@@ -33,6 +35,6 @@ def warm_up() -> None:
     global _WARM
     if _WARM:
         return
-    for module in (single_view, windows, clustering, reconstruct, linking, plane, target):
+    for module in (single_view, windows, clustering, reconstruct, linking, plane, target, primitives):
         module.warm_up()
     _WARM = True
