@@ -19,12 +19,39 @@ kernels by running them on a tiny real scene (:mod:`.sample`); :func:`warm_up` r
 (and the loops of the public geometry API the MvPT baseline uses), once per process. The
 :class:`~gymtrack.tracking.tracker.Tracker` calls it when it is constructed, so that
 compilation is never counted as tracking time.
+
+numba's cache notices edits of a kernel's own file only; these kernels inline the primitives of
+:mod:`gymtrack.geometry.primitives` and read :mod:`gymtrack.geometry.arrays`, and the plane
+kernel calls the clustering one. :func:`drop_stale_cache` (run on import) deletes the cached
+kernels older than any of those files, so that an edit there is never run as stale machine code.
+(A cache outside the source tree, ``NUMBA_CACHE_DIR``, is not checked: clear it by hand.)
 """
 
 from __future__ import annotations
 
-from ...geometry import primitives
-from . import clustering, linking, plane, reconstruct, single_view, target, windows
+from pathlib import Path
+
+from ...geometry import arrays, primitives
+
+
+def drop_stale_cache() -> int:
+    """Delete the cached kernels (``__pycache__/*.nbi``, ``*.nbc`` beside these files) older than
+    the newest file they depend on; returns how many files were deleted."""
+    here = Path(__file__).parent
+    deps = [Path(primitives.__file__), Path(arrays.__file__), *here.glob("*.py")]
+    try:
+        newest = max(p.stat().st_mtime for p in deps)
+        stale = [p for p in (here / "__pycache__").glob("*.nb[ic]") if p.stat().st_mtime < newest]
+        for p in stale:
+            p.unlink()
+    except OSError:  # a read-only install: nothing is edited there
+        return 0
+    return len(stale)
+
+
+drop_stale_cache()
+
+from . import clustering, linking, plane, reconstruct, single_view, target, windows  # noqa: E402  (after the check)
 
 _WARM = False
 

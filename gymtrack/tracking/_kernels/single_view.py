@@ -4,7 +4,7 @@ The arrays of one frame are small (tens of boxes), so numpy's per-call overhead 
 vectorised version; a frame is two kernel calls (:func:`iou_frame`, :func:`iou_commit`) plus
 the caller's assignment on the conflicting tracks and boxes. The numpy reference is
 ``tests/reference/single_view.py``. Track state: tbox (5, T) corners and area (shifted per
-camera, :func:`~..single_view.corners`), tcam, tlast, tid (T,) int64.
+camera, :func:`gymtrack.tracking.single_view.corners`), tcam, tlast, tid (T,) int64.
 """
 
 from __future__ import annotations
@@ -35,13 +35,13 @@ def nan_max(x, y):
 
 @njit(cache=True, error_model="numpy")
 def iou_frame(tbox, tcam, tlast, tid, frame, max_age, camera, box, threshold):
-    """One frame of :class:`~.single_view.IoUTracker` up to the assignment.
+    """One frame of :class:`gymtrack.tracking.single_view.IoUTracker` up to the assignment.
 
-    tbox: (5, T) live tracks' last boxes as :func:`~.single_view.corners` rows; tcam, tlast,
+    tbox: (5, T) live tracks' last boxes as :func:`gymtrack.tracking.single_view.corners` rows; tcam, tlast,
     tid: (T,) their camera, last frame and id; camera: (N,) int64; box: (N, 4) centre-form boxes.
 
     Drops tracks older than ``max_age + 1`` frames, builds the boxes' corners (shifted per
-    camera) and the IoU (:func:`~.single_view.iou_corners`) of every track and box of one camera
+    camera) and the IoU (:func:`gymtrack.tracking.single_view.iou_corners`) of every track and box of one camera
     (boxes of different cameras never overlap). Of the allowed pairs (IoU >= ``threshold``)
     those whose track and box have no other allowed partner are matched directly; the rest
     (the tracks and boxes of conflicting components) are left to the caller's assignment as a
@@ -132,7 +132,7 @@ def iou_frame(tbox, tcam, tlast, tid, frame, max_age, camera, box, threshold):
 
 @njit(cache=True)
 def iou_commit(tbox, tcam, tlast, tid, next_id, frame, camera, cb, rows, cols):
-    """The rest of one :class:`~.single_view.IoUTracker` frame: matched tracks take their box,
+    """The rest of one :class:`gymtrack.tracking.single_view.IoUTracker` frame: matched tracks take their box,
     unmatched boxes start tracks (ids ``next_id, next_id + 1, ...`` in box order).
 
     tbox (5, T), tcam, tlast, tid (T,): the live tracks; camera (N,), cb (5, N): the frame's
