@@ -526,8 +526,7 @@ def buffered_boxes(
     box, ok, last = buffered_boxes_kernel(
         np.ascontiguousarray(xyz, dtype=np.float64), np.ascontiguousarray(top_z, dtype=np.float64),
         np.ascontiguousarray(bottom_z, dtype=np.float64), np.ascontiguousarray(wh, dtype=np.float64),
-        np.ascontiguousarray(across), float(memory.get("half_length", BODY_HALF_DEPTH)),
-        rig.arrays,
+        np.ascontiguousarray(across), float(memory.get("half_length", BODY_HALF_DEPTH)), rig.arrays,
         BodyBox(float(box_scale), BODY_HALF_DEPTH, normal is None, MIN_LENGTH_COS, MIN_HALF_LENGTH,
                 DEFAULT_HALF_HEIGHT))
     memory["half_length"] = float(last)
