@@ -10,8 +10,10 @@
 * :mod:`.target`          target identification, smoothing, pose boxes (Eq. 13-14) (III-D)
 * :mod:`.tracker`         the streaming :class:`Tracker` and the offline runners
 * :mod:`.types`           the columnar types of every level
+* :mod:`._kernels`        the compiled loops of every stage, one module per stage (:func:`warm_up` compiles them)
 """
 
+from ._kernels import warm_up
 from .clustering import complete_linkage, tracklet_distances
 from .tracker import ASSOCIATIONS, MODES, Tracker, track_detections, track_routine
 from .types import (
@@ -21,6 +23,7 @@ from .types import (
 
 __all__ = [
     "Tracker", "track_detections", "track_routine", "MODES", "ASSOCIATIONS", "complete_linkage", "tracklet_distances",
+    "warm_up",
     "Tracks3D", "Target", "TrackerOutput", "TrackResult", "WindowTracklets", "WindowTracklets3D",
     "TRIANGULATION", "PLANE", "INTERPOLATED", "SOURCE_NAMES",
 ]

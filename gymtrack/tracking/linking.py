@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from . import _compiled
+from ._kernels import linking as kernels
 from .types import Tracks3D
 
 
@@ -41,8 +41,8 @@ def link_distances(
     later (the step). Returns (Mp, Mn) metres; NaN where the pair shares no valid frame.
     """
     c = np.ascontiguousarray
-    return _compiled.link_distances(c(prev_xyz, dtype=np.float64), c(prev_valid), c(new_xyz, dtype=np.float64),
-                                    c(new_valid), int(offset))  # pairs x frames: a compiled loop
+    return kernels.link_distances(c(prev_xyz, dtype=np.float64), c(prev_valid), c(new_xyz, dtype=np.float64),
+                                  c(new_valid), int(offset))  # pairs x frames: a compiled loop
 
 
 def link(D: np.ndarray, gate: float) -> tuple[np.ndarray, np.ndarray]:

@@ -46,7 +46,8 @@ from scipy.signal import savgol_coeffs
 from ..scene import in_box
 from ..geometry.camera import Rig
 from ..geometry.plane import Plane
-from . import _compiled
+from ._kernels.target import BodyBox
+from ._kernels.target import buffered_boxes as buffered_boxes_kernel
 from ..detections import Detections
 from .types import INTERPOLATED, Target
 
@@ -471,26 +472,6 @@ def nearest_normals(planes: Sequence[Plane], xyz: np.ndarray) -> np.ndarray | No
     return normals[np.argmin(dist, axis=1)]
 
 
-_RIG_ARRAYS: dict[int, tuple] = {}
-
-
-def _rig_arrays(rig: Rig) -> tuple:
-    """(R (C,3,3), t (C,3), K (C,3,3), dist (C,8), image sizes (C, 2)) of a rig, cached per rig object."""
-    hit = _RIG_ARRAYS.get(id(rig))
-    if hit is not None and hit[0] is rig:
-        return hit[1]
-    dist = np.zeros((len(rig), 8))
-    for i, c in enumerate(rig):
-        dist[i, : c.dist.size] = c.dist[:8]
-    R = np.stack([c.R for c in rig])
-    arrays = (R, np.stack([c.t for c in rig]), np.stack([c.K for c in rig]), dist,
-              np.array([cam.size for cam in rig], dtype=np.float64))
-    if len(_RIG_ARRAYS) > 16:
-        _RIG_ARRAYS.clear()
-    _RIG_ARRAYS[id(rig)] = (rig, arrays)
-    return arrays
-
-
 #: metres: half the body's extent across the vertical plane. Views facing the plane cannot
 #: measure it; a gymnast's trunk is ~0.25 m deep and limbs leave the plane in twists and circles.
 BODY_HALF_DEPTH = 0.25
@@ -528,7 +509,7 @@ def buffered_boxes(
     see the plane more obliquely than :data:`MIN_LENGTH_COS` are not used; the largest wins (a
     cut or occluded box only shrinks) and rows without a measurement keep the last one. In a view
     without a detection ``l`` is ``max(w, h)`` of the rectangle bounding its 8 projected corners.
-    One compiled loop (``_compiled.buffered_boxes``) per call.
+    One compiled loop (:func:`._kernels.target.buffered_boxes`) per call.
 
     Returns (box (N, C, 4) centre-form raw-pixel squares, ok (N, C) bool).
     """
@@ -542,12 +523,11 @@ def buffered_boxes(
         across[:, 2] = 0
         flat = np.linalg.norm(across, axis=1)
         across = np.where(flat[:, None] > 1e-9, across / np.maximum(flat, 1e-12)[:, None], [0.0, 1.0, 0.0])
-    R, t, K, dist, sizes = _rig_arrays(rig)
-    box, ok, last = _compiled.buffered_boxes(
+    box, ok, last = buffered_boxes_kernel(
         np.ascontiguousarray(xyz, dtype=np.float64), np.ascontiguousarray(top_z, dtype=np.float64),
         np.ascontiguousarray(bottom_z, dtype=np.float64), np.ascontiguousarray(wh, dtype=np.float64),
-        float(box_scale), np.ascontiguousarray(across), BODY_HALF_DEPTH, normal is None,
-        float(memory.get("half_length", BODY_HALF_DEPTH)), R, t, K, dist, sizes, MIN_LENGTH_COS, MIN_HALF_LENGTH,
-        DEFAULT_HALF_HEIGHT)
+        np.ascontiguousarray(across), float(memory.get("half_length", BODY_HALF_DEPTH)), rig.arrays,
+        BodyBox(float(box_scale), BODY_HALF_DEPTH, normal is None, MIN_LENGTH_COS, MIN_HALF_LENGTH,
+                DEFAULT_HALF_HEIGHT))
     memory["half_length"] = float(last)
     return box, ok

@@ -55,9 +55,11 @@ from ..detections import Detections
 from ..errors import InputError
 from ..scene import Scene
 from ..geometry.camera import Rig
+from ..geometry.arrays import PlaneArrays
 from ..geometry.epipolar import fundamental_matrices
 from ..geometry.plane import Plane
 from ..geometry.views import opposite_pairs
+from ._kernels import warm_up
 from .clustering import complete_linkage, tracklet_distances
 from .linking import link, link_distances, merge_overlaps, relink_distances, tracklet_ends
 from .plane_fallback import plane_stage
@@ -110,12 +112,14 @@ class Tracker:
         self.P = rig.projections
         self.centres = rig.centres
         self.planes = [Plane.from_spec(s) for s in scene.planes]
+        self.plane_arrays = PlaneArrays.from_planes(self.planes)  # the planes as the plane kernel takes them
         self.space = np.asarray(scene.tracking_space, dtype=np.float64)
         self.perf = np.asarray(scene.performance_space, dtype=np.float64)
         self.perf_centre = (self.perf[:3] + self.perf[3:]) / 2
         # (C, C) opposite camera pairs, judged at the scene's focus, the apparatus (see reconstruct)
         self.opposite = opposite_pairs(rig, scene.focus_point, p.opposite_angle_deg)
         self._undist = UndistortTables(rig) if any(cam.has_distortion for cam in rig) else None
+        warm_up()  # numba's compile / cache load of every kernel: once per process, never tracking time
         self.iou = IoUTracker(p.iou_threshold, p.max_age)
         self.selector = TargetSelector(p.identify_frames)
         self.smoother = TargetSmoother(p.max_gap)
@@ -368,7 +372,7 @@ class Tracker:
             # track already belongs to (kept below only if it links to that track)
             # (and so may a 2D track new in this window: a view's track broke, it may re-link the 3D track)
             single = member(sub.track2d, self._prev_2d) | ~member(sub.track2d, self._prev_seen)
-            pl = plane_stage(sub, self.rig, self.planes, p.cluster_plane, plane_labels, apart, single)
+            pl = plane_stage(sub, self.rig, self.plane_arrays, p.cluster_plane, plane_labels, apart, single)
             self.counts["segments_to_plane"] += len(to_plane)
             if len(pl):
                 bad = outliers(pl.xyz, pl.valid, self.space, p.max_speed)
