@@ -154,18 +154,21 @@ def select_target(rig: Rig, scene: Scene, tracks: Tracks3D, boxes: Detections, m
     end_order = np.argsort(last + max_age, kind="stable")
     ends, end_ids = (last + max_age)[end_order], ids[end_order]
     f0, f1 = int(tracks.frame.min()), int(tracks.frame.max())
-    frames = np.arange(f0, f1 + 2)
-    bounds, box_bounds = np.searchsorted(tracks.frame, frames), np.searchsorted(boxes.frame, frames)
+    # online, in runs of frames between two track ends (the selector decides a run frame by frame)
+    starts = np.unique(np.r_[f0, np.clip(ends + 1, f0, f1 + 1)])
+    starts = starts[starts <= f1]
+    stops = np.r_[starts[1:], f1 + 1]  # exclusive
+    bounds, box_bounds = np.searchsorted(tracks.frame, starts), np.searchsorted(boxes.frame, starts)
+    bounds, box_bounds = np.r_[bounds, len(tracks)], np.r_[box_bounds, len(boxes)]
     ended: dict[int, int] = {}
     out = []
     k = 0
-    for f in range(f0, f1 + 1):  # online, frame by frame
-        while k < len(ends) and ends[k] < f:
+    for i, (a, b) in enumerate(zip(starts.tolist(), stops.tolist())):
+        while k < len(ends) and ends[k] < a:
             ended[int(end_ids[k])] = int(ends[k] - max_age)
             k += 1
-        i, j = f - f0, f - f0 + 1
-        out.append(stage.update(f, f, tracks.select(slice(bounds[i], bounds[j])),
-                                boxes.select(slice(box_bounds[i], box_bounds[j])), ended))
+        out.append(stage.update(a, b - 1, tracks.select(slice(bounds[i], bounds[i + 1])),
+                                boxes.select(slice(box_bounds[i], box_bounds[i + 1])), ended))
     out.append(stage.finish())
     target, boxes_buf = Target.concat([t for t, _ in out]), Detections.concat([b for _, b in out])
     return target, boxes_buf, stage.switches
