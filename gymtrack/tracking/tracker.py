@@ -133,6 +133,7 @@ class Tracker:
         self._rec3d: list[tuple] = []
         self._rec2d: list[tuple] = []
         self._out: list[TrackerOutput] = []
+        self._nothing = TrackerOutput.empty(self.names)  # what most calls return
         # counters
         self.timings = dict.fromkeys(STAGES, 0.0)
         self.read = np.zeros(self.n_cameras, np.int64)
@@ -468,6 +469,8 @@ class Tracker:
         return Detections.from_arrays(frame, cam, t["raw"][row], self.names, score=t["score"][row], track_id=tid)
 
     def _collect(self) -> TrackerOutput:
+        if not self._out:
+            return self._nothing
         out = TrackerOutput.concat(self._out, self.names) if len(self._out) != 1 else self._out[0]
         self._out = []
         return out
@@ -488,20 +491,15 @@ def track_detections(
     """
     tracker = Tracker(rig, scene, mode=mode, association=association)
     det = detections.sorted()
-    if tuple(det.camera_names) != rig.names:
-        raise InputError(f"detections are of cameras {list(det.camera_names)}, the rig has {list(rig.names)}",
-                         field="camera_names")
     outs = []
     if len(det):
         frames, first = np.unique(det.frame, return_index=True)
-        bounds = np.r_[first, len(det)]
+        bounds = np.r_[first, len(det)].tolist()
         total = int(frames[-1] - frames[0] + 1)
-        cam = det.camera.astype(np.int64)
         for i, f in enumerate(frames.tolist()):
-            a, b = bounds[i], bounds[i + 1]
-            tracker._ingest(f, cam[a:b], det.box[a:b], det.score[a:b], det.track_id[a:b])
-            if tracker._out:
-                outs.append(tracker._collect())
+            out = tracker.update(f, det.select(slice(bounds[i], bounds[i + 1])))
+            if out:  # (nothing became final at most frames)
+                outs.append(out)
             if progress is not None and i % 100 == 0:
                 progress(int(f - frames[0] + 1), total)
         if progress is not None:
