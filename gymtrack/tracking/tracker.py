@@ -60,13 +60,13 @@ from ..geometry.epipolar import fundamental_matrices
 from ..geometry.plane import Plane
 from ..geometry.views import opposite_pairs
 from .clustering import complete_linkage, tracklet_distances
-from .linking import WindowLinker, merge_overlaps
+from .linking import WindowLinker
 from .plane_fallback import plane_stage
 from .reconstruct import cluster_members, opposite_clusters, outliers, triangulate_clusters
 from .single_view import IoUTracker
 from .target import TargetStage
 from .types import TrackerOutput, Tracks3D, TrackResult, WindowTracklets, WindowTracklets3D
-from .undistort import UndistortTables
+from .records import BoxTable, WindowRecords
 from .windows import build_window
 
 MODES = ("cascade", "triangulation", "plane")
@@ -113,7 +113,6 @@ class Tracker:
         self.space = np.asarray(scene.tracking_space, dtype=np.float64)
         # (C, C) opposite camera pairs, judged at the scene's focus, the apparatus (see reconstruct)
         self.opposite = opposite_pairs(rig, scene.focus_point, p.opposite_angle_deg)
-        self._undist = UndistortTables(rig) if any(cam.has_distortion for cam in rig) else None
         self.iou = IoUTracker(p.iou_threshold, p.max_age)
         self.counts: dict = defaultdict(int)
         self.linker = WindowLinker(p.step, p.link_3d, p.relink_frames, p.max_speed, self.counts)
@@ -125,13 +124,8 @@ class Tracker:
         self._next_start: int | None = None
         self._window_index = 0
         self._finished = False
-        # boxes: chunks not yet undistorted, and the table of frames not yet final
-        self._pending: list[tuple] = []
-        self._table = self._empty_table()
-        self._det_counter = 0
-        # the windows' 3D points and member boxes until their frames are final
-        self._rec3d: list[tuple] = []
-        self._rec2d: list[tuple] = []
+        self.table = BoxTable(rig)  # the boxes of frames not yet final
+        self.records = WindowRecords()  # the windows' 3D points and member boxes until final
         self._out: list[TrackerOutput] = []
         self._nothing = TrackerOutput.empty(self.names)  # what most calls return
         # counters
@@ -175,9 +169,7 @@ class Tracker:
 
     def state_size(self) -> int:
         """Number of stored rows/items over all internal state (for checking bounded memory)."""
-        n = len(self.iou) + sum(len(c[1]) for c in self._pending) + len(self._table["frame"])
-        n += sum(len(r[0]) for r in self._rec3d) + sum(len(r[0]) for r in self._rec2d)
-        return n + len(self.linker) + len(self.target)
+        return len(self.iou) + len(self.table) + len(self.records) + len(self.linker) + len(self.target)
 
     def summary(self) -> dict:
         """Counts and timings so far: frames, detections read / used / dropped per camera,
@@ -238,57 +230,14 @@ class Tracker:
                 self.counts["duplicates"] += len(track2d) - len(first)
                 first = np.sort(first)
                 camera, box, score, track2d = camera[first], box[first], score[first], track2d[first]
-        self._pending.append((frame, camera, track2d, box, score))  # frame numbers and ids added per window
+        self.table.add(frame, camera, track2d, box, score)
         self.timings["single_view"] += time.perf_counter() - t0
         if self._next_start + self.width - 1 == frame:
             self._process_window(self._next_start)
 
     def _idle(self) -> bool:
         """Nothing buffered that a window could still use (no boxes, tracklets or pending records)."""
-        return (not self._pending and not np.any(self._table["frame"] >= self._next_start)
-                and self.linker.idle and not self._rec3d and not self._rec2d)
-
-    @staticmethod
-    def _empty_table() -> dict:
-        return {"frame": np.zeros(0, np.int64), "camera": np.zeros(0, np.int64), "track2d": np.zeros(0, np.int64),
-                "raw": np.zeros((0, 4)), "score": np.zeros(0, np.float32), "det": np.zeros(0, np.int64),
-                "ubox": np.zeros((0, 4))}
-
-    def _undistort(self, camera: np.ndarray, box: np.ndarray) -> np.ndarray:
-        """Boxes to undistorted pixels: the top-left and bottom-right corners are undistorted
-        (:class:`~.undistort.UndistortTables`, OpenCV-exact to 0.05 px) and the box rebuilt from
-        them, so it keeps the person's extent in the ideal image."""
-        if self._undist is None or len(box) == 0:
-            return box.copy()
-        n = len(box)
-        centre, half = box[:, :2], box[:, 2:] / 2
-        und = self._undist(np.concatenate([camera, camera]), np.concatenate([centre - half, centre + half]))
-        tl, br = und[:n], und[n:]
-        out = np.empty((n, 4))  # written in place: no concatenation of the halves
-        np.add(tl, br, out=out[:, :2])
-        out[:, :2] /= 2
-        np.subtract(br, tl, out=out[:, 2:])
-        return out
-
-    def _flush_pending(self, start: int) -> None:
-        """Undistort the boxes received since the last window and drop the final frames' boxes."""
-        t = self._table
-        # the table is in arrival (frame) order: the rows kept are a suffix, sliced without a copy
-        cut = int(np.searchsorted(t["frame"], start))
-        if self._pending:
-            frames, cams, tids, raws, scores = zip(*self._pending)
-            self._pending = []
-            c, tid, raw = np.concatenate(cams), np.concatenate(tids), np.concatenate(raws)
-            f = np.repeat(np.array(frames, np.int64), [len(x) for x in cams])
-            det = self._det_counter + np.arange(len(c))  # detection row ids, in arrival order
-            self._det_counter += len(c)
-            if self.association == "iou":
-                self.read += np.bincount(c, minlength=self.n_cameras)
-            new = {"frame": f, "camera": c, "track2d": tid, "raw": raw,
-                   "score": np.concatenate(scores).astype(np.float32), "det": det, "ubox": self._undistort(c, raw)}
-            self._table = {k: np.concatenate([v[cut:], new[k]]) for k, v in t.items()}
-        elif cut:
-            self._table = {k: v[cut:] for k, v in t.items()}
+        return self.table.idle(self._next_start) and self.linker.idle and not len(self.records)
 
     # ================================================================ one window (stages 2-6, Fig. 2)
     def _process_window(self, start: int) -> None:
@@ -310,8 +259,10 @@ class Tracker:
     def _cut(self, start: int) -> WindowTracklets:
         """Stage 2: the boxes received so far undistorted, the 2D tracks cut into the window."""
         p = self.params
-        self._flush_pending(start)
-        t = self._table
+        new = self.table.flush(start)
+        if new is not None and self.association == "iou":
+            self.read += np.bincount(new, minlength=self.n_cameras)
+        t = self.table.rows
         segs, dropped = build_window(start, self.width, t["frame"], t["camera"], t["track2d"], t["ubox"], t["det"],
                                      p.min_tracklet_boxes, p.max_age)
         self.counts["windows"] += 1
@@ -395,31 +346,16 @@ class Tracker:
         if plane is not None:
             solo[len(cur) - len(plane):] = (plane.members >= 0).sum(axis=1) == 1
         cur = self.linker.step(cur, segs.track2d, solo)
-        self._record(cur, segs)
+        self.records.add(cur, segs, self._window_index)
         self._window_index += 1
         self._next_start = start + self.step
-
-    def _record(self, cur: WindowTracklets3D, segs: WindowTracklets) -> None:
-        """Keep the window's 3D points and member boxes until their frames are final."""
-        m, t = np.nonzero(cur.valid)
-        if len(m):
-            self._rec3d.append((cur.start + t, cur.track_id[m], cur.xyz[m, t], cur.top_z[m, t], cur.bottom_z[m, t],
-                                cur.source[m, t], cur.n_views[m, t]))
-        tm, tc = np.nonzero(cur.members >= 0)
-        if len(tm):
-            k = cur.members[tm, tc]
-            dets = segs.det[k]  # (n, W)
-            i, tt = np.nonzero(dets >= 0)
-            n = len(i)
-            self._rec2d.append((dets[i, tt], cur.start + tt, tc[i], cur.track_id[tm[i]],
-                                np.full(n, self._window_index, np.int64)))
 
     # ================================================================ finalisation (Eq. 12, stages 7-8)
     def _finalise(self, upto: int) -> None:
         if upto <= self.final_frame:
             return
         t0 = time.perf_counter()
-        tracks = self._final_tracks(upto)
+        tracks = self.records.tracks(upto)
         boxes = self._final_boxes(upto)
         t1 = time.perf_counter()
         self.timings["finalise"] += t1 - t0
@@ -428,45 +364,15 @@ class Tracker:
         self._out.append(TrackerOutput(tracks, boxes, *target))
         self.timings["target"] += time.perf_counter() - t1
 
-    def _final_tracks(self, upto: int) -> Tracks3D:
-        """Eq. 12: every (frame, track) estimate from the windows covering the frame, averaged."""
-        if not self._rec3d:
-            return Tracks3D.empty()
-        cols = [np.concatenate(c) for c in zip(*self._rec3d)] if len(self._rec3d) > 1 else list(self._rec3d[0])
-        done = cols[0] <= upto
-        self._rec3d = [tuple(c[~done] for c in cols)] if not done.all() else []
-        out = merge_overlaps(*(c[done] for c in cols))
-        return out
-
     def _final_boxes(self, upto: int) -> Detections:
-        """The tracks' boxes: per detection the latest window's track wins; one box per (frame, view, track)."""
-        if not self._rec2d:
+        """The tracks' raw boxes of the frames up to ``upto`` (:meth:`~.records.WindowRecords.boxes`)."""
+        rows = self.records.boxes(upto, self.n_cameras, self.linker.next_track_id + 1)
+        if rows is None:
             return Detections.empty(self.names)
-        cols = [np.concatenate(c) for c in zip(*self._rec2d)] if len(self._rec2d) > 1 else list(self._rec2d[0])
-        done = cols[1] <= upto
-        self._rec2d = [tuple(c[~done] for c in cols)] if not done.all() else []
-        det, frame, cam, tid, win = (c[done] for c in cols)
-
-        def group_starts(keys):  # sorted keys -> True at the first row of every run of equal keys
-            starts = np.ones(len(keys), bool)
-            np.not_equal(keys[1:], keys[:-1], out=starts[1:])
-            return starts
-
-        # two stable sorts, each keeping the first row of every group (cheaper than np.unique):
-        # per detection the latest window (ties: the earlier record) ...
-        order = np.lexsort((-win, det))
-        first = order[group_starts(det[order])]
-        det, frame, cam, tid = det[first], frame[first], cam[first], tid[first]
-        # ... then per (frame, view, track) the smallest detection; the result is in
-        # (frame, view, track) order, the output order
-        key = (frame * self.n_cameras + cam) * (self.linker.next_track_id + 1) + tid
-        order = np.lexsort((det, key))
-        first = order[group_starts(key[order])]
-        det, frame, cam, tid = det[first], frame[first], cam[first], tid[first]
-        t = self._table
-        row = np.searchsorted(t["det"], det)
+        det, frame, cam, tid = rows
+        raw, score = self.table.lookup(det)
         self.used += np.bincount(cam, minlength=self.n_cameras)
-        return Detections.from_arrays(frame, cam, t["raw"][row], self.names, score=t["score"][row], track_id=tid)
+        return Detections.from_arrays(frame, cam, raw, self.names, score=score, track_id=tid)
 
     def _collect(self) -> TrackerOutput:
         if not self._out:
