@@ -1,25 +1,32 @@
 """The streaming gymnast tracker (paper Section III, Fig. 2) and its offline runner.
 
-:class:`Tracker` is fed one frame of boxes (all views) at a time and returns what became final:
+:class:`Tracker` is fed one frame of boxes (all views) at a time and returns what became final.
+It wires the stages; the stateful ones are objects of their own modules:
 
-1. single view (III-A): one IoU tracker per camera links boxes into 2D tracks (raw pixels);
+1. single view (III-A): one IoU tracker per camera links boxes into 2D tracks (raw pixels,
+   :class:`~.single_view.IoUTracker`); the boxes wait in a :class:`~.records.BoxTable`;
 2. windows (III-A): every ``step = window // 2`` frames the boxes received since the last
    window are undistorted (:mod:`.undistort`; the geometric stages work in undistorted pixels,
    the outputs keep the raw boxes) and the 2D tracks are cut into the window of the last
    ``window`` frames (:mod:`.windows`);
 3. cross-view clustering (III-B): Eq. 2 distances and Algorithm 1 (:mod:`.clustering`);
 4. triangulation (III-B, Eq. 3) of clusters of >= 2 views that are not just an opposite pair
-   (judged at the performance-space centre), and the outlier test (Eq. 4) (:mod:`.reconstruct`);
+   (judged at the apparatus), and the outlier test (Eq. 4) (:mod:`.reconstruct`);
 5. the cascade (III-C): the rest go to the vertical plane, Eq. 5-9 (:mod:`.plane_fallback`);
-6. cross-window linking (III-B, Eq. 10-12) (:mod:`.linking`), carrying the 2D boxes along;
+6. cross-window linking (III-B, Eq. 10-11) (:class:`~.linking.WindowLinker`), carrying the 2D
+   boxes along; the windows' points wait in :class:`~.records.WindowRecords` and are merged
+   (Eq. 12) when final;
 7. the heights of the body's top and bottom, from the box tops and bottoms by the same method;
-8. the target gymnast (III-D, Eq. 13-14) (:mod:`.target`).
+8. the target gymnast (III-D, Eq. 13-14) (:class:`~.target.TargetStage`).
+
+:meth:`Tracker._process_window` is Fig. 2 for one window: cut, cluster, triangulate, plane
+fallback, link -- one short method each.
 
 Latency: a frame's track points and boxes are final once the second window covering it has
 been processed, i.e. ``window - 1`` frames after it arrives (9 frames with the paper's window);
 the target adds ``backfill_frames`` (its decisions wait so an identification can claim the
-frames it looked back on, :class:`~.target.TargetBackfill`) and the smoothing half-window (2
-frames), more only at the end of a target segment (see :class:`~.target.TargetSmoother`).
+frames it looked back on, :class:`~.identify.TargetBackfill`) and the smoothing half-window (2
+frames), more only at the end of a target segment (see :class:`~.smoothing.TargetSmoother`).
 Memory is bounded on an endless stream: the tracker keeps only live 2D tracks, the boxes of
 frames not yet final, the previous window's 3D tracklets, the 3D records of frames not yet
 final, the target's last ``identify_frames`` frames and the ``backfill_frames`` held back
@@ -391,7 +398,8 @@ def track_detections(
     association: str = "iou",
     progress: Callable[[int, int], None] | None = None,
 ) -> TrackResult:
-    """Run the streaming :class:`Tracker` over all frames of ``detections`` (offline use).
+    """Run the streaming :class:`Tracker` over all frames of ``detections`` (offline use): one
+    :meth:`Tracker.update` per frame with boxes, so input is checked as in streaming use.
 
     progress: optional ``progress(frames_done, frames_total)`` callback, called every ~100 frames.
     """
