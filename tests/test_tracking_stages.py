@@ -101,3 +101,22 @@ def test_target_stage_in_runs_equals_frame_by_frame(tracked):
     assert by_frame[2].switches == in_runs[2].switches
     # the tracker's own target (its tracks' ends known online) covers the same frames here
     assert len(np.setxor1d(res.target.frame, by_frame[0].frame)) < 0.05 * len(res.target)
+
+
+@pytest.mark.parametrize("camera", [-1, 4])
+def test_offline_runner_checks_input_as_update_does(tracked, camera):
+    """track_detections feeds Tracker.update(): a bad camera index is an InputError either way."""
+    rig, scene, res = tracked
+    assert len(rig) == 4
+    det = res.boxes.select(slice(0, 50))
+    bad = Detections(det.frame, np.where(np.arange(len(det)) == 7, camera, det.camera).astype(np.int16), det.box,
+                     det.score, det.track_id, det.camera_names)
+    from gymtrack.errors import InputError
+    from gymtrack.tracking import Tracker
+
+    with pytest.raises(InputError, match="camera index outside 0..3"):
+        track_detections(rig, scene, bad)
+    f = int(bad.frame[7])
+    with pytest.raises(InputError, match="camera index outside 0..3"):
+        Tracker(rig, scene).update(f, bad.select(bad.frame == f))
+    track_detections(rig, scene, det)  # the same boxes with good indices: fine

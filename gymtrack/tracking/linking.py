@@ -26,8 +26,6 @@ tracklets only to what is left, and only to continue a track (never to start one
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
@@ -249,7 +247,7 @@ class WindowLinker:
                 cur, ids, new = cur.subset(~drop), ids[~drop], new[~drop]
         ids[new] = self.next_track_id + np.arange(int(new.sum()))
         self.next_track_id += int(new.sum())
-        cur = replace(cur, track_id=ids)
+        cur = cur.with_track_id(ids)
         self.prev_2d = track2d[cur.members[cur.members >= 0]]
         self.prev_seen = track2d
         self._end_tracks(cur)

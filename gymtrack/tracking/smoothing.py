@@ -11,7 +11,6 @@ a segment (until it is known whether the gap closes). Rows: :class:`~.types.Targ
 
 from __future__ import annotations
 
-from dataclasses import replace
 from functools import lru_cache
 
 import numpy as np
@@ -129,5 +128,5 @@ class TargetSmoother:
         for c in [*range(lo, a), *range(b, hi)]:  # a few points near the segment's ends
             left, right = min(h, c), min(h, n - 1 - c)
             xyz[c - lo] = _smoothing_weights(left, right, self.order) @ X[c - left: c + right + 1]
-        return replace(seg.take(slice(lo, hi)), xyz=xyz)
+        return seg.take(slice(lo, hi)).with_xyz(xyz)
 

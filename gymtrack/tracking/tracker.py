@@ -53,7 +53,6 @@ from __future__ import annotations
 
 import time
 from collections import defaultdict
-from dataclasses import replace
 from pathlib import Path
 from typing import Callable
 
@@ -149,15 +148,17 @@ class Tracker:
         frame = int(frame)
         if self.last_frame is not None and frame <= self.last_frame:
             raise InputError(f"frames must increase: got frame {frame} after {self.last_frame}", field="frame")
-        if tuple(detections.camera_names) != self.names:
+        if detections.camera_names != self.names and tuple(detections.camera_names) != self.names:
             raise InputError(f"detections are of cameras {list(detections.camera_names)}, the rig has {list(self.names)}",
                              field="camera_names")
-        if len(detections) and np.any(detections.frame != frame):
-            bad = int(detections.frame[detections.frame != frame][0])
-            raise InputError(f"update({frame}, ...) got a box of frame {bad}", field="frame")
-        if len(detections) and (detections.camera.min() < 0 or detections.camera.max() >= self.n_cameras):
+        camera = detections.camera.astype(np.int64)
+        # one test per frame for both (as uint64, negative camera indices are huge)
+        if len(camera) and ((detections.frame != frame) | (camera.view(np.uint64) >= self.n_cameras)).any():
+            if (detections.frame != frame).any():
+                bad = int(detections.frame[detections.frame != frame][0])
+                raise InputError(f"update({frame}, ...) got a box of frame {bad}", field="frame")
             raise InputError(f"camera index outside 0..{self.n_cameras - 1}", field="camera")
-        self._ingest(frame, detections.camera.astype(np.int64), detections.box, detections.score, detections.track_id)
+        self._ingest(frame, camera, detections.box, detections.score, detections.track_id)
         return self._collect()
 
     def finish(self) -> TrackerOutput:
@@ -339,7 +340,7 @@ class Tracker:
         if bad.any():
             self.counts["tracklets_outliers"] += int(bad.sum())
             pl = pl.subset(~bad)
-        pl = replace(pl, members=np.where(pl.members >= 0, to_plane[np.maximum(pl.members, 0)], -1))  # index segs
+        pl = pl.with_members(np.where(pl.members >= 0, to_plane[np.maximum(pl.members, 0)], -1))  # index segs
         self.counts["plane_tracklets"] += len(pl)
         return pl
 

@@ -164,6 +164,16 @@ class WindowTracklets3D:
                         ("xyz", "top_z", "bottom_z", "valid", "source", "n_views", "members", "track_id")),
         )
 
+    def with_track_id(self, track_id: np.ndarray) -> "WindowTracklets3D":
+        """The same tracklets with ``track_id`` (M,) (cheaper than ``dataclasses.replace``)."""
+        return WindowTracklets3D(self.start, self.xyz, self.top_z, self.bottom_z, self.valid, self.source, self.n_views,
+                                 self.members, track_id)
+
+    def with_members(self, members: np.ndarray) -> "WindowTracklets3D":
+        """The same tracklets with ``members`` (M, C)."""
+        return WindowTracklets3D(self.start, self.xyz, self.top_z, self.bottom_z, self.valid, self.source, self.n_views,
+                                 members, self.track_id)
+
     def subset(self, index) -> "WindowTracklets3D":
         return WindowTracklets3D(
             self.start, self.xyz[index], self.top_z[index], self.bottom_z[index], self.valid[index], self.source[index],
@@ -242,7 +252,12 @@ class TargetRows:
         """Row-wise concatenation of one or more parts (one part is returned as it is)."""
         if len(parts) == 1:
             return parts[0]
-        return cls(*(np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(cls)))
+        return cls(*(np.concatenate(c) for c in zip(*((p.frame, p.track_id, p.xyz, p.top_z, p.bottom_z, p.source, p.wh)
+                                                       for p in parts))))
+
+    def with_xyz(self, xyz: np.ndarray) -> "TargetRows":
+        """The same rows with centres ``xyz`` (n, 3) (cheaper than ``dataclasses.replace``)."""
+        return TargetRows(self.frame, self.track_id, xyz, self.top_z, self.bottom_z, self.source, self.wh)
 
     def take(self, index) -> "TargetRows":
         """Rows by index, mask or slice."""
