@@ -325,8 +325,9 @@ class TrackerOutput:
             Detections.concat([p.target_boxes for p in parts]),
         )
 
-    def __bool__(self) -> bool:
-        return bool(len(self.tracks) or len(self.boxes) or len(self.target) or len(self.target_boxes))
+    def __bool__(self) -> bool:  # (array sizes, not len(): asked once per streamed frame)
+        return bool(self.tracks.frame.size or self.boxes.frame.size or self.target.frame.size
+                    or self.target_boxes.frame.size)
 
 
 @dataclass(frozen=True, eq=False)
