@@ -16,9 +16,10 @@ What it is, per frame:
 3. frame-to-frame 3D linking: a linear assignment (``scipy``'s ``linear_sum_assignment``)
    between the tracks seen in the last ``max_age`` frames and the frame's points, gated at
    ``link_gate`` metres (0.6, the paper's cross-window gate); unmatched points start new ids;
-4. the tracker's own target stage (:class:`gymtrack.tracking.target.TargetStage`), fed frame by
-   frame: Eq. 13 identification, the tracker's back-fill, gap filling and smoothing and the
-   Eq. 14 expanded boxes.
+4. the tracker's own target stage (:class:`gymtrack.tracking.target.TargetStage`), fed online
+   (in runs of frames between track ends; a track ends ``max_age`` frames after its last point):
+   Eq. 13 identification, the tracker's back-fill, gap filling and smoothing and the Eq. 14
+   expanded boxes.
 
 What it is not: no keypoints (MvPT matches full-body keypoints), no appearance / Re-ID, no 2D
 tracklets or temporal windows (every frame is associated on its own), no plane fallback. It
