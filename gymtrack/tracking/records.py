@@ -11,6 +11,8 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass, fields
+
 import numpy as np
 
 from ..geometry.camera import Rig
@@ -94,52 +96,89 @@ class BoxTable:
         return t["raw"][row], t["score"][row]
 
 
-class WindowRecords:
-    """The windows' linked 3D points and member detections until their frames are final."""
+@dataclass(frozen=True, eq=False)
+class MemberRows:
+    """The detections a window's linked 3D tracklets used, one row per (detection, window).
 
-    def __init__(self):
-        self._rec3d: list[tuple] = []  # (frame, track_id, xyz, top_z, bottom_z, source, n_views) rows
-        self._rec2d: list[tuple] = []  # (det, frame, camera, track_id, window index) rows
+    det (n,) int64 detection row id (:class:`BoxTable`), frame (n,) int64, camera (n,) int64,
+    track_id (n,) int64 the 3D track, window (n,) int64 the window's index.
+    """
+
+    det: np.ndarray
+    frame: np.ndarray
+    camera: np.ndarray
+    track_id: np.ndarray
+    window: np.ndarray
 
     def __len__(self) -> int:
-        return sum(len(r[0]) for r in self._rec3d) + sum(len(r[0]) for r in self._rec2d)
+        return len(self.det)
+
+    @classmethod
+    def concat(cls, parts: list["MemberRows"]) -> "MemberRows":
+        return parts[0] if len(parts) == 1 else cls(*(np.concatenate([getattr(p, f.name) for p in parts])
+                                                       for f in fields(cls)))
+
+    def select(self, index) -> "MemberRows":
+        return MemberRows(*(getattr(self, f.name)[index] for f in fields(self)))
+
+
+def _concat_estimates(parts: list[Tracks3D]) -> Tracks3D:
+    return parts[0] if len(parts) == 1 else Tracks3D.concat(parts)
+
+
+class WindowRecords:
+    """The windows' linked 3D points and member detections until their frames are final.
+
+    The 3D points are kept as :class:`~.types.Tracks3D` rows, one per window estimate (a frame
+    in the overlap of two windows has two until Eq. 12 merges them); the detections as
+    :class:`MemberRows`.
+    """
+
+    def __init__(self):
+        self._estimates: list[Tracks3D] = []
+        self._members: list[MemberRows] = []
+
+    def __len__(self) -> int:
+        return sum(len(r) for r in self._estimates) + sum(len(r) for r in self._members)
 
     def add(self, cur: WindowTracklets3D, segs: WindowTracklets, window_index: int) -> None:
         """Keep the window's 3D points and member boxes until their frames are final."""
         m, t = np.nonzero(cur.valid)
         if len(m):
-            self._rec3d.append((cur.start + t, cur.track_id[m], cur.xyz[m, t], cur.top_z[m, t], cur.bottom_z[m, t],
-                                cur.source[m, t], cur.n_views[m, t]))
+            self._estimates.append(Tracks3D(cur.start + t, cur.track_id[m], cur.xyz[m, t], cur.top_z[m, t],
+                                            cur.bottom_z[m, t], cur.source[m, t], cur.n_views[m, t]))
         tm, tc = np.nonzero(cur.members >= 0)
         if len(tm):
             k = cur.members[tm, tc]
             dets = segs.det[k]  # (n, W)
             i, tt = np.nonzero(dets >= 0)
             n = len(i)
-            self._rec2d.append((dets[i, tt], cur.start + tt, tc[i], cur.track_id[tm[i]],
-                                np.full(n, window_index, np.int64)))
+            self._members.append(MemberRows(dets[i, tt], cur.start + tt, tc[i], cur.track_id[tm[i]],
+                                            np.full(n, window_index, np.int64)))
 
     def tracks(self, upto: int) -> Tracks3D:
         """Eq. 12: every (frame, track) estimate from the windows covering the frame, averaged,
         for the frames up to ``upto`` (then forgotten)."""
-        if not self._rec3d:
+        if not self._estimates:
             return Tracks3D.empty()
-        cols = [np.concatenate(c) for c in zip(*self._rec3d)] if len(self._rec3d) > 1 else list(self._rec3d[0])
-        done = cols[0] <= upto
-        self._rec3d = [tuple(c[~done] for c in cols)] if not done.all() else []
-        return merge_overlaps(*(c[done] for c in cols))
+        rows = _concat_estimates(self._estimates)
+        done = rows.frame <= upto
+        self._estimates = [rows.select(~done)] if not done.all() else []
+        r = rows.select(done)
+        return merge_overlaps(r.frame, r.track_id, r.xyz, r.top_z, r.bottom_z, r.source, r.n_views)
 
     def boxes(self, upto: int, n_cameras: int, n_tracks: int) -> tuple[np.ndarray, ...] | None:
         """The tracks' detections of the frames up to ``upto`` (then forgotten): per detection the
         latest window's track wins; one per (frame, view, track), the smallest detection id.
         n_tracks: more than the largest track id. Returns (det, frame, camera, track_id), each
         (n,) in (frame, view, track) order, or None when nothing is held."""
-        if not self._rec2d:
+        if not self._members:
             return None
-        cols = [np.concatenate(c) for c in zip(*self._rec2d)] if len(self._rec2d) > 1 else list(self._rec2d[0])
-        done = cols[1] <= upto
-        self._rec2d = [tuple(c[~done] for c in cols)] if not done.all() else []
-        det, frame, cam, tid, win = (c[done] for c in cols)
+        rows = MemberRows.concat(self._members)
+        done = rows.frame <= upto
+        self._members = [rows.select(~done)] if not done.all() else []
+        r = rows.select(done)
+        det, frame, cam, tid, win = r.det, r.frame, r.camera, r.track_id, r.window
 
         def group_starts(keys):  # sorted keys -> True at the first row of every run of equal keys
             starts = np.ones(len(keys), bool)
