@@ -21,6 +21,9 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from gymtrack.cli import app
+from gymtrack.cli.options import (calibration_format_option, overwrite_option, read_routine, silent_seconds_option,
+                                  strict_option, units_option)
+from gymtrack.cli.report import REPORTER, interrupts
 from gymtrack.tracking.tracker import MODES
 
 console = Console()
@@ -47,30 +50,57 @@ def summary_table(summary: dict, title: str = "Tracking summary") -> Table:
     return t
 
 
+def empty_result_warnings(summary: dict) -> list[str]:
+    """Warnings for a run that found no 3D tracks or no target, with the usual reasons."""
+    why = ("check the calibration's units (--units mm|cm for a file in millimetres or centimetres), that its "
+           "world frame is the scene's (metres, z up, origin on the floor under the apparatus) and scene.yaml's "
+           "performance_space")
+    if summary.get("tracks", 0) == 0:
+        return [f"no 3D tracks: nothing was tracked inside the scene's tracking space; {why}"]
+    if summary.get("target_frames", 0) == 0:
+        return [f"no target frames: no track stayed in the performance space at the target's heights; {why}, "
+                "and the target heights h_top / h_bot"]
+    return []
+
+
 @app.command()
 def track(
     routine: Path = typer.Argument(..., help="routine folder (cameras.yaml, scene.yaml, detections/)"),
-    out: Path = typer.Option(..., "--out", "-o", help="output folder"),
+    out: Path = typer.Option(..., "--out", "-o", help="output folder (replaced whole, atomically, when the run completes)"),
     mode: str = typer.Option("cascade", "--mode", "-m", help="cascade | triangulation | plane"),
+    calibration_format: Optional[str] = calibration_format_option(),
+    units: Optional[str] = units_option(),
+    overwrite: bool = overwrite_option(),
+    strict: bool = strict_option(),
+    silent_seconds: float = silent_seconds_option(),
 ) -> None:
     """Track a routine: 3D tracks, per-view boxes and the target gymnast (paper Section III)."""
+    from gymtrack.cli.system import compile_notice
     from gymtrack.errors import InputError
+    from gymtrack.formats.atomic import atomic_output
     from gymtrack.formats.outputs import write_outputs
-    from gymtrack.formats.routine import load_routine
     from gymtrack.tracking.tracker import track_detections
 
     if mode not in MODES:
         raise InputError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}", field="--mode")
-    r = load_routine(routine)
-    with Progress(TextColumn("[bold]tracking"), BarColumn(), MofNCompleteColumn(), TextColumn("frames"),
-                  TimeRemainingColumn(), console=console, transient=True) as bar:
-        task = bar.add_task("track", total=None)
+    inputs = {"routine": Path(routine).absolute(), "mode": mode, "calibration_format": calibration_format, "units": units}
+    with interrupts(), atomic_output(out, "track", inputs, overwrite=overwrite) as staging:
+        r, _ = read_routine(routine, calibration_format, units, silent_seconds)
+        notice = compile_notice()
+        if notice:
+            console.print(notice, highlight=False)
+        with Progress(TextColumn("[bold]tracking"), BarColumn(), MofNCompleteColumn(), TextColumn("frames"),
+                      TimeRemainingColumn(), console=console, transient=True) as bar:
+            task = bar.add_task("track", total=None)
 
-        def progress(done: int, total: int) -> None:
-            bar.update(task, completed=done, total=total)
+            def progress(done: int, total: int) -> None:
+                bar.update(task, completed=done, total=total)
 
-        result = track_detections(r.rig, r.scene, r.detections, mode=mode, progress=progress)
-    write_outputs(result, out)
+            result = track_detections(r.rig, r.scene, r.detections, mode=mode, progress=progress)
+        for msg in empty_result_warnings(result.summary):
+            REPORTER.warn(msg)
+        REPORTER.check_strict(strict)
+        write_outputs(result, staging)
     console.print(summary_table(result.summary))
     console.print(f"outputs written to [bold]{out}[/]")
 
@@ -93,14 +123,21 @@ def demo(
 ) -> None:
     """Simulate uneven bars seen by two opposite cameras; compare the cascade with triangulation."""
     from gymtrack.eval.metrics import average_euclidean_distance, coverage
+    from gymtrack.formats.atomic import atomic_output
     from gymtrack.formats.outputs import write_outputs
     from gymtrack.simulate import simulate_routine
     from gymtrack.tracking.tracker import track_detections
 
+    if out is not None:  # fail on a bad --out before the work
+        from gymtrack.formats.atomic import check_output_folder
+
+        for sub in ("routine", "cascade", "triangulation"):
+            check_output_folder(Path(out) / sub)
     with console.status(f"simulating {seconds:g} s of uneven bars, two opposite cameras (seed {seed})"):
         sim = simulate_routine("uneven_bars", n_cam=2, seed=seed, seconds=seconds)
     if out is not None:
-        sim.write(Path(out) / "routine")
+        with interrupts(), atomic_output(Path(out) / "routine", "demo") as staging:
+            sim.write(staging)
     gt = sim.target_centre
     ok = np.all(np.isfinite(gt), axis=1)
     perf = sim.frames[sim.performing & ok]
@@ -111,7 +148,8 @@ def demo(
         with console.status(f"tracking with {mode}"):
             results[mode] = track_detections(sim.rig, sim.scene, sim.detections, mode=mode)
         if out is not None:
-            write_outputs(results[mode], Path(out) / mode)
+            with interrupts(), atomic_output(Path(out) / mode, "demo") as staging:
+                write_outputs(results[mode], staging)
     both = np.intersect1d(np.intersect1d(results["cascade"].target.frame, results["triangulation"].target.frame), perf)
     t = Table(title="Target gymnast vs ground truth (performing frames)", title_justify="left")
     for col in ("mode", "AED", "AED where both found it", "coverage", "switches", "frames/s"):
