@@ -38,8 +38,8 @@ def _methods(text: str) -> list[str]:
     return out
 
 
-def print_summary(rows: list[dict]) -> None:
-    """Table 5 and the targets, with rich."""
+def print_summary(rows: list[dict]) -> list:
+    """Table 5 and the targets, with rich; returns the claims (:func:`gymtrack.eval.aggregate.claims`)."""
     from gymtrack.eval.aggregate import claims, table5
     from gymtrack.eval.render import fmt
 
@@ -58,10 +58,12 @@ def print_summary(rows: list[dict]) -> None:
     for col in ("target", "value", "result", "detail"):
         tab.add_column(col)
     colour = {"PASS": "green", "FAIL": "red"}
-    for c in claims(rows):
+    found = claims(rows)
+    for c in found:
         tab.add_row(c.name, fmt(c.value, "ratio") if abs(c.value) < 100 else fmt(c.value, "fps"),
                     f"[{colour.get(c.status, 'yellow')}]{c.status}[/]", c.detail)
     console.print(tab)
+    return found
 
 
 @app.command()
@@ -76,6 +78,7 @@ def benchmark(
     wildtrack: Optional[Path] = typer.Option(None, "--wildtrack", help="WILDTRACK folder for the real-data section (skipped with a note if absent; default: gymtrack.eval.config's, ../shared/data/wildtrack)"),
     no_wildtrack: bool = typer.Option(False, "--no-wildtrack", help="skip the real-data section"),
     no_mot: bool = typer.Option(False, "--no-mot", help="skip the all-people MOT metrics (faster)"),
+    check: bool = typer.Option(False, "--check", help="exit with status 1 when a target (claim) fails or a run fails"),
 ) -> None:
     """Benchmark the tracker's modes, the MvPT-like baseline and the GT-association oracle (paper Tables 3, 5, 6)."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
@@ -114,9 +117,18 @@ def benchmark(
         if not wt.get("available"):
             console.print(f"[yellow]{wt['note']}[/]")
     files = write_benchmark(run, out, meta={"suite": str(suite), "methods": ", ".join(method_list)}, wildtrack=wt)
-    print_summary(run.rows)
+    found = print_summary(run.rows)
     failed = [r for r in run.rows if r.get("error")]
     if failed:
         console.print(f"[red]{len(failed)} runs failed[/] (listed in the report), e.g. {failed[0]['routine']} / "
                       f"{failed[0]['method']}: {failed[0]['error']}")
     console.print(f"report: [bold]{files['report']}[/] ({run.seconds:.0f} s)")
+    if check:
+        bad = [c.name for c in found if c.status == "FAIL"]
+        if bad or failed:
+            what = [f"{len(bad)} target(s) failed ({'; '.join(bad)})"] if bad else []
+            what += [f"{len(failed)} run(s) failed"] if failed else []
+            console.print(f"[red]--check failed:[/] {', '.join(what)}", highlight=False)
+            raise typer.Exit(1)
+        console.print(f"[green]--check passed:[/] {sum(c.status == 'PASS' for c in found)} targets met "
+                      f"({sum(c.status == 'n/a' for c in found)} n/a)", highlight=False)

@@ -34,9 +34,7 @@ class NumbaCache:
 
 
 def _package_dir() -> Path:
-    import gymtrack
-
-    return Path(gymtrack.__file__).resolve().parent
+    return Path(__file__).resolve().parents[1]
 
 
 def numba_cache() -> NumbaCache:
@@ -85,10 +83,8 @@ def _version(dist: str) -> str:
 
 def system_rows() -> list[tuple[str, str]]:
     """(what, value) rows of ``gymtrack info --system``."""
-    import gymtrack
-
     rows = [
-        ("gymtrack", f"{gymtrack.__version__} ({_package_dir()})"),
+        ("gymtrack", f"{_version('gymtrack')} ({_package_dir()})"),
         ("python", f"{platform.python_version()} ({sys.executable})"),
         ("platform", platform.platform()),
     ]

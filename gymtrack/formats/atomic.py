@@ -316,6 +316,10 @@ def atomic_update(out: str | Path, command: str, inputs: Mapping[str, Any] | Non
 
 
 def _version() -> str:
-    from .. import __version__
+    """The installed gymtrack version (metadata: importing the package facade here would go up a layer)."""
+    from importlib import metadata
 
-    return __version__
+    try:
+        return metadata.version("gymtrack")
+    except metadata.PackageNotFoundError:
+        return "unknown"
