@@ -83,5 +83,5 @@ def interrupts(console: Console | None = None) -> Iterator[None]:
         yield
     except KeyboardInterrupt as exc:
         notes = "; ".join(getattr(exc, "__notes__", []))
-        (console or REPORTER.console).print(f"[red]interrupted[/] (Ctrl-C){': ' + notes if notes else ''}", highlight=False)
+        (console or REPORTER.console).print(f"[red]interrupted[/] (Ctrl-C){': ' + notes if notes else ''}", highlight=False, soft_wrap=True)
         raise typer.Exit(130) from None
