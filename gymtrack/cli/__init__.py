@@ -35,6 +35,8 @@ def main() -> None:
 
     from rich.console import Console
 
+    from rich.markup import escape
+
     from ..errors import GymtrackError
     from .report import STRICT_EXIT, StrictFailure
 
@@ -42,7 +44,7 @@ def main() -> None:
         app()
     except GymtrackError as exc:
         console = Console(stderr=True)
-        console.print(f"[bold red]error:[/] {exc}", highlight=False, soft_wrap=True)
+        console.print(f"[bold red]error:[/] {escape(str(exc))}", highlight=False, soft_wrap=True)
         for note in getattr(exc, "__notes__", []):
-            console.print(f"  {note}", highlight=False, soft_wrap=True)
+            console.print(f"  {escape(note)}", highlight=False, soft_wrap=True)
         sys.exit(STRICT_EXIT if isinstance(exc, StrictFailure) else 2)

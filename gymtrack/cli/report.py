@@ -15,6 +15,7 @@ from contextlib import contextmanager
 from typing import Iterator
 
 from rich.console import Console
+from rich.markup import escape
 
 from ..errors import GymtrackError
 
@@ -42,7 +43,7 @@ class Reporter:
         if message in self.messages:
             return
         self.messages.append(message)
-        self.console.print(f"[yellow]warning:[/] {message}", highlight=False, soft_wrap=True)
+        self.console.print(f"[yellow]warning:[/] {escape(message)}", highlight=False, soft_wrap=True)
 
     def showwarning(self, message, category, filename, lineno, file=None, line=None) -> None:
         """Stands in for :func:`warnings.showwarning` while a command runs."""
@@ -83,5 +84,6 @@ def interrupts(console: Console | None = None) -> Iterator[None]:
         yield
     except KeyboardInterrupt as exc:
         notes = "; ".join(getattr(exc, "__notes__", []))
-        (console or REPORTER.console).print(f"[red]interrupted[/] (Ctrl-C){': ' + notes if notes else ''}", highlight=False, soft_wrap=True)
+        (console or REPORTER.console).print(f"[red]interrupted[/] (Ctrl-C){': ' + escape(notes) if notes else ''}",
+                                            highlight=False, soft_wrap=True)
         raise typer.Exit(130) from None
