@@ -140,6 +140,9 @@ def test_track_into_non_output_folder_and_unwritable_out(routine, tmp_path):
     res = _track(routine, mine)
     assert isinstance(res.exception, InputError) and "--overwrite" in str(res.exception)
     assert [p.name for p in mine.iterdir()] == ["notes.txt"]
+    res = _track(routine, routine.parent, "--overwrite")  # would replace the routine itself
+    assert isinstance(res.exception, InputError) and "an input of this run" in str(res.exception)
+    assert (routine / "scene.yaml").is_file()
     blocker = tmp_path / "blocker"
     blocker.write_text("a file")
     res = _track(routine, blocker / "out")
@@ -227,10 +230,10 @@ def test_ctrl_c_one_line_exit_130_nothing_half_written(routine, tmp_path):
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env())
     while proc.poll() is None and not list(tmp_path.glob(".out.gymtrack-tmp-*")):
         time.sleep(0.002)
-    time.sleep(0.2)
+    time.sleep(0.05)  # reading the routine or tracking (about 2 s before the outputs are written)
     proc.send_signal(signal.SIGINT)
     stdout, stderr = proc.communicate(timeout=120)
-    assert proc.returncode == 130, stderr
+    assert proc.returncode == 130, (proc.returncode, stdout, stderr)
     text = (stdout + stderr).strip().splitlines()
     assert len(text) == 1 and "interrupted" in text[0] and "untouched" in text[0], text
     assert checksums(out) == before

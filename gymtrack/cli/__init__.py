@@ -48,3 +48,6 @@ def main() -> None:
         for note in getattr(exc, "__notes__", []):
             console.print(f"  {escape(note)}", highlight=False, soft_wrap=True)
         sys.exit(STRICT_EXIT if isinstance(exc, StrictFailure) else 2)
+    except KeyboardInterrupt:  # outside a command's own handling (e.g. while printing its summary)
+        Console(stderr=True).print("[red]interrupted[/] (Ctrl-C)", highlight=False)
+        sys.exit(130)

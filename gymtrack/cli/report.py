@@ -67,10 +67,15 @@ REPORTER = Reporter()
 
 @contextmanager
 def capture_warnings(reporter: Reporter = REPORTER) -> Iterator[Reporter]:
-    """Route Python warnings to ``reporter`` (each distinct message once) inside the block."""
+    """Route Python warnings to ``reporter`` (each distinct message once) inside the block.
+
+    The filters stay Python's (deprecations of libraries stay hidden), except that the project's
+    own warnings always reach the reporter, also on a second run in the same process."""
+    from ..errors import GymtrackWarning
+
     reporter.reset()
     with warnings.catch_warnings():
-        warnings.simplefilter("default")
+        warnings.simplefilter("always", GymtrackWarning)
         warnings.showwarning = reporter.showwarning
         yield reporter
 

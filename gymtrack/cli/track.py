@@ -84,7 +84,7 @@ def track(
     if mode not in MODES:
         raise InputError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}", field="--mode")
     inputs = {"routine": Path(routine).absolute(), "mode": mode, "calibration_format": calibration_format, "units": units}
-    with interrupts(), atomic_output(out, "track", inputs, overwrite=overwrite) as staging:
+    with interrupts(), atomic_output(out, "track", inputs, overwrite=overwrite, protect=[routine]) as staging:
         r, _ = read_routine(routine, calibration_format, units, silent_seconds)
         notice = compile_notice()
         if notice:
@@ -143,6 +143,11 @@ def demo(
     perf = sim.frames[sim.performing & ok]
     plane = sim.scene.planes[0]
     off = np.abs((gt[sim.performing & ok] - np.array(plane.point)) @ np.array(plane.normal))
+    from gymtrack.cli.system import compile_notice
+
+    notice = compile_notice()
+    if notice:
+        console.print(notice, highlight=False)
     results = {}
     for mode in ("cascade", "triangulation"):
         with console.status(f"tracking with {mode}"):

@@ -36,7 +36,7 @@ import signal
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Iterator, Mapping
+from typing import Any, Iterator, Mapping, Sequence
 
 from ..errors import InputError
 
@@ -184,14 +184,18 @@ def _remove_stale(folder: Path, prefix: str) -> None:
 
 
 # ------------------------------------------------------------------ checks
-def check_output_folder(out: str | Path, overwrite: bool = False) -> Path:
+def check_output_folder(out: str | Path, overwrite: bool = False, protect: Sequence[str | Path] = ()) -> Path:
     """Check that ``out`` can take a new output folder; returns its absolute path.
 
     Raises InputError (naming ``out``) when it is a file, a non-empty folder that is not a
-    gymtrack output (without ``overwrite``), read-only, or its parent cannot be created or
-    written.
+    gymtrack output (without ``overwrite``), read-only, its parent cannot be created or
+    written, or it is (or holds) one of the ``protect`` paths (the inputs of the run).
     """
-    out = Path(out).absolute()
+    out = Path(out).resolve()
+    for p in protect:
+        p = Path(p).resolve()
+        if p == out or out in p.parents:
+            raise InputError(f"--out would replace {p}, an input of this run; choose another folder", source=out)
     if out.exists() and not out.is_dir():
         raise InputError("--out exists and is not a folder", source=out)
     if out.is_dir():
@@ -227,22 +231,24 @@ def _untouched_note(exc: BaseException, out: Path, existed: bool) -> None:
 # ------------------------------------------------------------------ whole folder
 @contextmanager
 def atomic_output(
-    out: str | Path, command: str, inputs: Mapping[str, Any] | None = None, overwrite: bool = False
+    out: str | Path, command: str, inputs: Mapping[str, Any] | None = None, overwrite: bool = False,
+    protect: Sequence[str | Path] = (),
 ) -> Iterator[Path]:
     """Write a whole output folder atomically; yields the staging folder to write into.
 
     Enter it before any work: it checks ``out`` (:func:`check_output_folder`) and creates the
     staging folder beside it (so an unwritable place fails at once). On a normal exit the marker
     is written and the staging folder replaces ``out``; on an exception nothing changes at ``out``.
+    ``protect``: input paths ``out`` must not be or contain.
     """
-    out = check_output_folder(out, overwrite)
+    out = check_output_folder(out, overwrite, protect)
     prefix = f".{out.name}{_TMP_TAG}"
     _remove_stale(out.parent, prefix)
     try:
         staging = Path(tempfile.mkdtemp(prefix=f"{prefix}{os.getpid()}-", dir=out.parent))
     except OSError as exc:
         raise InputError(f"cannot write beside --out: {exc.strerror or exc}", source=out.parent) from None
-    existed, swapped = out.exists(), False
+    existed, swapped, old = out.exists(), False, None
     _folder_mode(staging, out if existed else None)
     try:
         yield staging
@@ -260,6 +266,11 @@ def atomic_output(
         if not swapped:
             shutil.rmtree(staging, ignore_errors=True)
             _untouched_note(exc, out, existed)
+        else:  # interrupted right after the swap: the new outputs are in place
+            if old is not None:
+                shutil.rmtree(old, ignore_errors=True)
+            if hasattr(exc, "add_note"):
+                exc.add_note(f"the new outputs were complete and are in {out}")
         raise
 
 
