@@ -170,9 +170,17 @@ def test_compile_notice_when_the_cache_is_cold(monkeypatch, tmp_path):
     assert not numba_cache().warm
     note = compile_notice()
     assert note is not None and "40-60 s" in note and str(tmp_path) in note
-    (tmp_path / "x" / "gymtrack" / "tracking").mkdir(parents=True)
-    (tmp_path / "x" / "gymtrack" / "tracking" / "k.f-1.py311.nbi").write_bytes(b"")
+    # numba's layout under NUMBA_CACHE_DIR: <folder name>_<sha1 of the folder's path>/<module>.<function>-<line>.pyXY.nbi
+    import hashlib
+
+    import gymtrack.tracking
+
+    d = Path(gymtrack.tracking.__file__).resolve().parent
+    sub = tmp_path / f"tracking_{hashlib.sha1(str(d).encode()).hexdigest()}"
+    sub.mkdir()
+    (sub / "_compiled.kernel-10.py311.nbi").write_bytes(b"")
     assert numba_cache().warm and compile_notice() is None
+    assert numba_cache().locations == (sub,)
 
 
 # ------------------------------------------------------------------ benchmark --check

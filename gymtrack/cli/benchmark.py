@@ -10,6 +10,9 @@ routines as ``gymtrack simulate-suite --per-apparatus 4 --seconds 25``: 7 appara
 performances x n_cam 2, 3, 4 = 84 routine folders, apparatus simulated in parallel -- unless
 ``<out>/suite/suite.json`` already exists, and benchmarks that. ``--per-apparatus 20 --seconds 0``
 gives the paper's 140 performances (each seen with n_cam = 2, 3 and 4) at the simulator's lengths.
+
+``--check``: exit status 1 when a target of :func:`gymtrack.eval.aggregate.claims` fails or a
+run fails (for CI); without it the status is 0 whatever the results.
 """
 
 from __future__ import annotations

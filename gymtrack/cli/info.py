@@ -4,6 +4,9 @@ Paper: summarises the inputs of Section III: the calibrated views (``P_c``, III-
 view pairs whose line-of-sight angle makes triangulation ill-conditioned and calls for the
 ray-plane intersection (III-C), the per-view boxes (III-A) and the domain knowledge of the scene
 (performance space, buffer, planes, identification heights ``h_top`` / ``h_bot``, parameters).
+It also reports the stream checks of :mod:`gymtrack.formats.checks` (cameras that go silent,
+gaps, share of boxes outside the image) as warnings (``--strict``: exit 3 on any).
+``gymtrack info --system``: versions, numba cache, CPUs (:mod:`gymtrack.cli.system`).
 """
 
 from __future__ import annotations
@@ -164,7 +167,7 @@ def info(
 
         t = Table(title="System", title_justify="left", show_header=False)
         t.add_column("what", style="bold")
-        t.add_column("value")
+        t.add_column("value", overflow="fold")  # whole paths: the table goes into bug reports
         for k, v in system_rows():
             t.add_row(k, v)
         console.print(t)

@@ -10,6 +10,7 @@ files, by default in the ``__pycache__`` folders beside the package's modules, o
 
 from __future__ import annotations
 
+import hashlib
 import os
 import platform
 import sys
@@ -37,32 +38,40 @@ def _package_dir() -> Path:
     return Path(__file__).resolve().parents[1]
 
 
-def numba_cache() -> NumbaCache:
-    """The cache folders numba uses for this package and the ``*.nbi`` files found in them."""
-    pkg = _package_dir()
+def _cache_roots() -> list[Path]:
+    """Folders numba may keep a module's cache under, besides its ``__pycache__``: ``NUMBA_CACHE_DIR``
+    when set, else numba's user-wide cache folder (used when the package folder is read-only)."""
     env = os.environ.get("NUMBA_CACHE_DIR")
-    roots: list[Path] = []
     if env:
-        roots.append(Path(env))
-    else:
-        roots += sorted(p for p in pkg.rglob("__pycache__") if p.is_dir())
-        try:
-            from numba.misc.appdirs import AppDirs
+        return [Path(env)]
+    try:
+        from numba.misc.appdirs import AppDirs
 
-            user = Path(AppDirs(appname="numba", appauthor=False).user_cache_dir)
-            if user.is_dir():
-                roots.append(user)
-        except Exception:  # numba's private layout may change; the package folders are enough
-            pass
-    n = 0
-    for root in roots:
-        if root.is_dir():
-            # under a shared cache root, only the files of this package's modules count
-            pattern = "*.nbi" if root.name == "__pycache__" else f"**/{pkg.name}/**/*.nbi"
-            n += sum(1 for _ in root.glob(pattern))
-    shown = tuple(roots) if env else (tuple({p for p in roots if p.name == "__pycache__" and any(p.glob("*.nbi"))})
-                                      or (pkg / "tracking" / "__pycache__",))
-    return NumbaCache(tuple(sorted(shown)), n)
+        return [Path(AppDirs(appname="numba", appauthor=False).user_cache_dir)]
+    except Exception:  # numba's layout may change; the in-tree caches are then all we check
+        return []
+
+
+def numba_cache() -> NumbaCache:
+    """The cache folders numba uses for this package's modules and the ``*.nbi`` files in them.
+
+    Every package folder ``d`` is looked at (the kernels may move between modules): its
+    ``__pycache__``, and ``<root>/<d.name>_<sha1 of d's path>`` under each cache root, which is
+    how numba names a module's folder under ``NUMBA_CACHE_DIR`` or its user-wide cache.
+    """
+    pkg = _package_dir()
+    folders = [pkg] + sorted(p for p in pkg.rglob("*") if p.is_dir() and (p / "__init__.py").is_file())
+    roots = _cache_roots()
+    candidates: list[Path] = []
+    for d in folders:
+        if not os.environ.get("NUMBA_CACHE_DIR"):
+            candidates.append(d / "__pycache__")
+        candidates += [r / f"{d.name}_{hashlib.sha1(str(d).encode()).hexdigest()}" for r in roots]
+    found = {c: sum(1 for _ in c.glob("*.nbi")) for c in candidates if c.is_dir()}
+    used = tuple(sorted(c for c, n in found.items() if n))
+    if not used:  # cold: say where the cache will go
+        used = tuple(roots) if os.environ.get("NUMBA_CACHE_DIR") else (pkg / "tracking" / "__pycache__",)
+    return NumbaCache(used, sum(found.values()))
 
 
 def compile_notice() -> str | None:

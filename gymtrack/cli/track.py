@@ -1,8 +1,13 @@
 """``gymtrack track`` and ``gymtrack demo``: run the tracker of Section III.
 
 * ``gymtrack track <routine> --out <out> [--mode cascade|triangulation|plane]`` reads a routine
-  folder, tracks it with a progress bar, writes the outputs of ``shared/formats.md``
-  (:func:`gymtrack.formats.outputs.write_outputs`) and prints a short summary.
+  folder (with the calibration options of ``info``: ``--units``, ``--calibration-format``),
+  tracks it with a progress bar, writes the outputs of ``shared/formats.md``
+  (:func:`gymtrack.formats.outputs.write_outputs`) atomically (:mod:`gymtrack.formats.atomic`:
+  a complete new folder or the previous one untouched; ``--overwrite`` for a non-empty folder
+  that is not a gymtrack output) and prints a short summary. Silent cameras, gaps, boxes outside
+  the image and a run without tracks or target are warnings; ``--strict`` makes them exit 3
+  with nothing written. Ctrl-C: one line, exit 130.
 * ``gymtrack demo [--out DIR] [--seconds S]`` simulates a difficult routine (uneven bars seen by
   two opposite cameras), tracks it with the cascade and with triangulation only, and prints the
   target's mean 3D error (AED) against the ground truth for both: the point of the method in
@@ -50,6 +55,13 @@ def summary_table(summary: dict, title: str = "Tracking summary") -> Table:
     return t
 
 
+def checks_line(checks) -> str:
+    """One line of the stream checks (:class:`gymtrack.formats.checks.StreamChecks`)."""
+    outside = ", ".join(f"{c} {checks.outside[c]:.1%}/{checks.partly_outside[c]:.1%}" for c in checks.outside)
+    return (f"input: {checks.frames_with_data} frames with detections; {len(checks.silences)} silent stretch(es), "
+            f"{len(checks.gaps)} gap(s); boxes outside the image (wholly/partly): {outside}")
+
+
 def empty_result_warnings(summary: dict) -> list[str]:
     """Warnings for a run that found no 3D tracks or no target, with the usual reasons."""
     why = ("check the calibration's units (--units mm|cm for a file in millimetres or centimetres), that its "
@@ -85,7 +97,7 @@ def track(
         raise InputError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}", field="--mode")
     inputs = {"routine": Path(routine).absolute(), "mode": mode, "calibration_format": calibration_format, "units": units}
     with interrupts(), atomic_output(out, "track", inputs, overwrite=overwrite, protect=[routine]) as staging:
-        r, _ = read_routine(routine, calibration_format, units, silent_seconds)
+        r, checks = read_routine(routine, calibration_format, units, silent_seconds)
         notice = compile_notice()
         if notice:
             console.print(notice, highlight=False)
@@ -102,6 +114,7 @@ def track(
         REPORTER.check_strict(strict)
         write_outputs(result, staging)
     console.print(summary_table(result.summary))
+    console.print(checks_line(checks), highlight=False)
     console.print(f"outputs written to [bold]{out}[/]")
 
 
