@@ -200,7 +200,7 @@ def test_benchmark_check_exits_1_when_a_claim_fails(monkeypatch, tmp_path):
     monkeypatch.setattr(bench, "write_benchmark", lambda *a, **k: {"report": tmp_path / "report.md"})
     claims = [Claim("speed", 2000.0, 1000.0, "PASS", ""), Claim("n_cam=2: FR", 0.5, 0.3, "FAIL", "")]
     monkeypatch.setattr(aggregate, "claims", lambda rows, config=None: claims)
-    args = ["benchmark", "--suite", str(suite), "--out", str(tmp_path / "b"), "--no-wildtrack"]
+    args = ["benchmark", "--suite", str(suite), "--out", str(tmp_path / "b"), "--no-wildtrack", "--no-pose"]
     assert runner.invoke(app, args).exit_code == 0  # without --check: a report, status 0
     res = runner.invoke(app, args + ["--check"], env=WIDE)
     assert res.exit_code == 1 and "1 target(s) failed (n_cam=2: FR)" in res.output, res.output

@@ -184,7 +184,6 @@ def _run_until(cmd: list[str], staging_glob: tuple[Path, str], delay: float, wri
 def test_sigkill_leaves_old_or_new_outputs_complete(routine, tmp_path):
     cmd = [sys.executable, "-m", "gymtrack.cli", "track", str(routine)]
     new_ref = tmp_path / "new_ref"
-    t0 = time.monotonic()
     proc = subprocess.Popen(cmd + ["-o", str(new_ref)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=_env())
     while not list(tmp_path.glob(".new_ref.gymtrack-tmp-*")) and proc.poll() is None:
         time.sleep(0.002)

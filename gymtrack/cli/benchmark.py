@@ -121,6 +121,14 @@ def benchmark(
         wt = run_wildtrack(wildtrack, log=lambda s: console.print("  " + s))
         if not wt.get("available"):
             console.print(f"[yellow]{wt['note']}[/]")
+    mv = None
+    if not no_pose:
+        from gymtrack.eval.pose_mvor import run_mvor_pose
+
+        console.print("MVOR real-keypoints pose section ...")
+        mv = run_mvor_pose(mvor, log=lambda s: console.print("  " + s))
+        if not mv.get("available"):
+            console.print(f"[yellow]{mv['note']}[/]")
     files = write_benchmark(run, out, meta={"suite": str(suite), "methods": ", ".join(method_list)}, wildtrack=wt, mvor=mv)
     found = print_summary(run.rows)
     if not no_pose:
