@@ -39,7 +39,8 @@ it links to), linked after the candidates of several views; the target back-fill
 
 Modes (the paper's ablation, Table 4): ``cascade`` (the method), ``triangulation`` (no plane
 fallback; single-tracklet clusters are dropped and opposite pairs triangulated -- close to
-UniMMT), ``plane`` (every segment goes to the plane stage). ``association="oracle"`` replaces
+UniMMT), ``plane`` (every segment goes to the plane stage); beyond the paper, ``cascade+`` fuses
+two-view clusters with the plane by their uncertainty (:mod:`.fusion`). ``association="oracle"`` replaces
 the IoU tracker and Algorithm 1 by ground-truth ids carried in ``Detections.track_id`` (>= 0;
 -1 = a false positive, dropped and counted): the limit better association could reach. The
 plane stage then still applies its own Eq. 8 test, within each ground-truth person only.
@@ -68,6 +69,7 @@ from ..geometry.plane import Plane
 from ..geometry.views import opposite_pairs
 from ._kernels import warm_up
 from .clustering import complete_linkage, tracklet_distances
+from .fusion import PlaneRayFusion
 from .linking import WindowLinker
 from .plane_fallback import plane_stage
 from .reconstruct import cluster_members, opposite_clusters, outliers, triangulate_clusters
@@ -77,12 +79,12 @@ from .types import TrackerOutput, Tracks3D, TrackResult, WindowTracklets, Window
 from .records import BoxTable, WindowRecords
 from .windows import build_window
 
-MODES = ("cascade", "triangulation", "plane")
+MODES = ("cascade", "triangulation", "plane", "cascade+")
 ASSOCIATIONS = ("iou", "oracle")
 #: the per-window counters of :meth:`Tracker.summary` (what was used, made, dropped)
 COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulated", "segments_to_plane",
           "plane_tracklets", "segments_dropped_single", "tracklets_outliers", "links", "relinks", "plane_single_view",
-          "plane_single_view_unlinked")
+          "plane_single_view_unlinked", "fused_plane", "fused_triangulated", "fused_to_plane_stage")
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
 
 
@@ -93,7 +95,7 @@ class Tracker:
     ----------
     rig: the cameras; ``Detections.camera`` indexes it.
     scene: performance space, buffer, planes, target heights and every parameter (``scene.params``).
-    mode: ``cascade`` | ``triangulation`` | ``plane`` (see the module docstring).
+    mode: ``cascade`` | ``triangulation`` | ``plane`` | ``cascade+`` (see the module docstring).
     association: ``iou`` (the method) | ``oracle`` (ground-truth ids in ``track_id``).
 
     Use: ``out = tracker.update(frame, detections_of_that_frame)`` for increasing frame
@@ -126,6 +128,7 @@ class Tracker:
         self.iou = IoUTracker(p.iou_threshold, p.max_age)
         self.counts: dict = defaultdict(int)
         self.linker = WindowLinker(p.step, p.link_3d, p.relink_frames, p.max_speed, self.counts)
+        self.fusion = PlaneRayFusion(rig, scene, self.plane_arrays, self.opposite, self.counts) if mode == "cascade+" else None
         self.target = TargetStage(rig, scene)
         # stream position
         self.first_frame: int | None = None
@@ -304,14 +307,18 @@ class Tracker:
             return None, to_plane
         members = cluster_members(labels, segs.camera, C)
         multi = (members >= 0).sum(axis=1) >= 2
-        if self.mode == "cascade":  # single tracklets and opposite pairs go to the plane
+        fused = None
+        if self.mode != "triangulation":  # single tracklets and opposite pairs go to the plane
             fallback = ~multi | opposite_clusters(members, self.opposite)
+            if self.fusion is not None:  # cascade+: two-view clusters fused with the plane (.fusion)
+                fused, fallback, multi = self.fusion.step(segs, members, fallback, multi)
             back = members[fallback].ravel()
             to_plane = np.sort(back[back >= 0])
             multi &= ~fallback
         else:
             self.counts["segments_dropped_single"] += int(np.count_nonzero(~multi))
         tri = triangulate_clusters(segs, members[multi], self.P)
+        tri = tri if fused is None else WindowTracklets3D.concat([tri, fused])
         bad = outliers(tri.xyz, tri.valid, self.space, p.max_speed)
         if bad.any():
             self.counts["tracklets_outliers"] += int(bad.sum())
