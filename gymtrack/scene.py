@@ -113,12 +113,18 @@ class Scene(_Strict):
         "Default: the centre of the performance space"
     )
     planes: tuple[PlaneSpec, ...] = ()
+    auto_planes: bool = Field(False, description="``planes: auto`` in scene.yaml: the apparatus plane is fitted "
+                              "from the data before tracking (the preset's planes, if any, are the starting guess)")
     target: TargetSpec = TargetSpec()
     params: Params = Params()
 
     @model_validator(mode="before")
     @classmethod
     def _apply_preset(cls, data: Any) -> Any:
+        if isinstance(data, dict) and isinstance(data.get("planes"), str):
+            if data["planes"] != "auto":
+                raise ValueError(f"planes must be a list of planes or 'auto', got {data['planes']!r}")
+            data = {k: v for k, v in data.items() if k != "planes"} | {"auto_planes": True}
         if not isinstance(data, dict) or data.get("apparatus") is None:
             return data
         name = data["apparatus"]
@@ -171,6 +177,8 @@ class Scene(_Strict):
     def to_yaml_dict(self) -> dict:
         """The plain mapping ``scene.yaml`` holds (:func:`gymtrack.formats.scene.save_scene` writes it)."""
         d = self.model_dump(mode="json")
+        if d.pop("auto_planes"):
+            d["planes"] = "auto"
         return d
 
 

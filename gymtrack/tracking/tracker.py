@@ -37,13 +37,13 @@ segments Eq. 2 separates are never fused on the plane; a view left alone may con
 plane, the 3D track its 2D track belonged to (or, for a 2D track new in the window, the track
 it links to), linked after the candidates of several views; the target back-fill.
 
-Modes (the paper's ablation, Table 4): ``cascade`` (the method), ``triangulation`` (no plane
-fallback; single-tracklet clusters are dropped and opposite pairs triangulated -- close to
-UniMMT), ``plane`` (every segment goes to the plane stage); beyond the paper, ``cascade+`` fuses
-two-view clusters with the plane by their uncertainty (:mod:`.fusion`). ``association="oracle"`` replaces
-the IoU tracker and Algorithm 1 by ground-truth ids carried in ``Detections.track_id`` (>= 0;
--1 = a false positive, dropped and counted): the limit better association could reach. The
-plane stage then still applies its own Eq. 8 test, within each ground-truth person only.
+Modes (the paper's ablation, Table 4): ``cascade`` (the method), ``triangulation`` (no plane fallback;
+single-tracklet clusters are dropped and opposite pairs triangulated -- close to UniMMT), ``plane``
+(every segment goes to the plane stage); ``cascade+`` (beyond the paper) fuses two-view clusters with
+the plane by their uncertainty (:mod:`.fusion`). ``association="oracle"`` replaces the IoU tracker
+and Algorithm 1 by ground-truth ids carried in ``Detections.track_id`` (>= 0; -1 = a false positive,
+dropped and counted): the limit better association could reach. The plane stage then still applies
+its own Eq. 8 test, within each ground-truth person only. ``planes: auto``: :mod:`.plane_fit`.
 
 Speed (``benchmarks/bench_tracker.py``): every stage works on whole windows of columns; the
 per-frame work is one IoU matrix and, when needed, one assignment. What is skipped is counted
@@ -72,6 +72,7 @@ from .clustering import complete_linkage, tracklet_distances
 from .fusion import PlaneRayFusion
 from .linking import WindowLinker
 from .plane_fallback import plane_stage
+from .plane_fit import resolve_auto_planes
 from .reconstruct import cluster_members, opposite_clusters, outliers, triangulate_clusters
 from .single_view import IoUTracker
 from .target import TargetStage
@@ -302,12 +303,11 @@ class Tracker:
         p, C = self.params, self.n_cameras
         if labels is None:
             return None, np.arange(len(segs))
-        to_plane = np.zeros(0, np.int64)
+        to_plane, fused = np.zeros(0, np.int64), None
         if not len(segs):
             return None, to_plane
         members = cluster_members(labels, segs.camera, C)
         multi = (members >= 0).sum(axis=1) >= 2
-        fused = None
         if self.mode != "triangulation":  # single tracklets and opposite pairs go to the plane
             fallback = ~multi | opposite_clusters(members, self.opposite)
             if self.fusion is not None:  # cascade+: two-view clusters fused with the plane (.fusion)
@@ -415,7 +415,7 @@ def track_detections(
 
     progress: optional ``progress(frames_done, frames_total)`` callback, called every ~100 frames.
     """
-    tracker = Tracker(rig, scene, mode=mode, association=association)
+    tracker = Tracker(rig, resolve_auto_planes(rig, scene, detections, track_detections), mode=mode, association=association)
     det = detections.sorted()
     outs = []
     if len(det):
