@@ -37,12 +37,13 @@ segments Eq. 2 separates are never fused on the plane; a view left alone may con
 plane, the 3D track its 2D track belonged to (or, for a 2D track new in the window, the track
 it links to), linked after the candidates of several views; the target back-fill.
 
-Modes (the paper's ablation, Table 4): ``cascade`` (the method), ``triangulation`` (no plane
-fallback; single-tracklet clusters are dropped and opposite pairs triangulated -- close to
-UniMMT), ``plane`` (every segment goes to the plane stage). ``association="oracle"`` replaces
-the IoU tracker and Algorithm 1 by ground-truth ids carried in ``Detections.track_id`` (>= 0;
--1 = a false positive, dropped and counted): the limit better association could reach. The
-plane stage then still applies its own Eq. 8 test, within each ground-truth person only.
+Modes (the paper's ablation, Table 4): ``cascade`` (the method), ``triangulation`` (no plane fallback;
+single-tracklet clusters are dropped and opposite pairs triangulated -- close to UniMMT), ``plane``
+(every segment goes to the plane stage); ``cascade+`` (beyond the paper) fuses two-view clusters with
+the plane by their uncertainty (:mod:`.fusion`). ``association="oracle"`` replaces the IoU tracker
+and Algorithm 1 by ground-truth ids carried in ``Detections.track_id`` (>= 0; -1 = a false positive,
+dropped and counted): the limit better association could reach. The plane stage then still applies
+its own Eq. 8 test, within each ground-truth person only. ``planes: auto``: :mod:`.plane_fit`.
 
 Speed (``benchmarks/bench_tracker.py``): every stage works on whole windows of columns; the
 per-frame work is one IoU matrix and, when needed, one assignment. What is skipped is counted
@@ -68,8 +69,10 @@ from ..geometry.plane import Plane
 from ..geometry.views import opposite_pairs
 from ._kernels import warm_up
 from .clustering import complete_linkage, tracklet_distances
+from .fusion import PlaneRayFusion
 from .linking import WindowLinker
 from .plane_fallback import plane_stage
+from .plane_fit import resolve_auto_planes
 from .reconstruct import cluster_members, opposite_clusters, outliers, triangulate_clusters
 from .single_view import IoUTracker
 from .target import TargetStage
@@ -77,12 +80,12 @@ from .types import TrackerOutput, Tracks3D, TrackResult, WindowTracklets, Window
 from .records import BoxTable, WindowRecords
 from .windows import build_window
 
-MODES = ("cascade", "triangulation", "plane")
+MODES = ("cascade", "triangulation", "plane", "cascade+")
 ASSOCIATIONS = ("iou", "oracle")
 #: the per-window counters of :meth:`Tracker.summary` (what was used, made, dropped)
 COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulated", "segments_to_plane",
           "plane_tracklets", "segments_dropped_single", "tracklets_outliers", "links", "relinks", "plane_single_view",
-          "plane_single_view_unlinked")
+          "plane_single_view_unlinked", "fused_plane", "fused_triangulated", "fused_to_plane_stage")
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
 
 
@@ -93,7 +96,7 @@ class Tracker:
     ----------
     rig: the cameras; ``Detections.camera`` indexes it.
     scene: performance space, buffer, planes, target heights and every parameter (``scene.params``).
-    mode: ``cascade`` | ``triangulation`` | ``plane`` (see the module docstring).
+    mode: ``cascade`` | ``triangulation`` | ``plane`` | ``cascade+`` (see the module docstring).
     association: ``iou`` (the method) | ``oracle`` (ground-truth ids in ``track_id``).
 
     Use: ``out = tracker.update(frame, detections_of_that_frame)`` for increasing frame
@@ -126,6 +129,7 @@ class Tracker:
         self.iou = IoUTracker(p.iou_threshold, p.max_age)
         self.counts: dict = defaultdict(int)
         self.linker = WindowLinker(p.step, p.link_3d, p.relink_frames, p.max_speed, self.counts)
+        self.fusion = PlaneRayFusion(rig, scene, self.plane_arrays, self.opposite, self.counts) if mode == "cascade+" else None
         self.target = TargetStage(rig, scene)
         # stream position
         self.first_frame: int | None = None
@@ -299,19 +303,22 @@ class Tracker:
         p, C = self.params, self.n_cameras
         if labels is None:
             return None, np.arange(len(segs))
-        to_plane = np.zeros(0, np.int64)
+        to_plane, fused = np.zeros(0, np.int64), None
         if not len(segs):
             return None, to_plane
         members = cluster_members(labels, segs.camera, C)
         multi = (members >= 0).sum(axis=1) >= 2
-        if self.mode == "cascade":  # single tracklets and opposite pairs go to the plane
+        if self.mode != "triangulation":  # single tracklets and opposite pairs go to the plane
             fallback = ~multi | opposite_clusters(members, self.opposite)
+            if self.fusion is not None:  # cascade+: two-view clusters fused with the plane (.fusion)
+                fused, fallback, multi = self.fusion.step(segs, members, fallback, multi)
             back = members[fallback].ravel()
             to_plane = np.sort(back[back >= 0])
             multi &= ~fallback
         else:
             self.counts["segments_dropped_single"] += int(np.count_nonzero(~multi))
         tri = triangulate_clusters(segs, members[multi], self.P)
+        tri = tri if fused is None else WindowTracklets3D.concat([tri, fused])
         bad = outliers(tri.xyz, tri.valid, self.space, p.max_speed)
         if bad.any():
             self.counts["tracklets_outliers"] += int(bad.sum())
@@ -408,7 +415,7 @@ def track_detections(
 
     progress: optional ``progress(frames_done, frames_total)`` callback, called every ~100 frames.
     """
-    tracker = Tracker(rig, scene, mode=mode, association=association)
+    tracker = Tracker(rig, resolve_auto_planes(rig, scene, detections, track_detections), mode=mode, association=association)
     det = detections.sorted()
     outs = []
     if len(det):
