@@ -179,3 +179,18 @@ def test_overlay_one_camera_and_unknown_camera(demo, tmp_path):
         assert v.size == (160, 90) and len(v) == 10  # one view at its video's size
     r = CliRunner().invoke(app, ["overlay", str(routine), str(out), "--camera", "cam9", "-o", str(tmp_path / "x.mp4")])
     assert r.exit_code != 0 and "cam9" in str(r.exception)
+
+
+def test_a_failed_overlay_leaves_no_file(demo, tmp_path, monkeypatch):
+    import gymtrack.eval.overlay as ov
+
+    _, routine, out = demo
+    video = tmp_path / "o.mp4"
+
+    def boom(*a, **k):
+        raise RuntimeError("interrupted")
+
+    monkeypatch.setattr(ov, "draw_view", boom)
+    with pytest.raises(RuntimeError):
+        ov.write_overlay(routine, out, video, camera="cam0", frames=[100, 101])
+    assert list(tmp_path.iterdir()) == []

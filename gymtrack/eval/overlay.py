@@ -11,6 +11,8 @@ view's scale ``s`` (tile width / camera width).
 
 from __future__ import annotations
 
+import os
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator, Sequence
@@ -29,6 +31,20 @@ DETECTION = (170, 170, 170)
 B_BUF = (0, 230, 255)  # yellow: the target's expanded box
 BONE = (255, 255, 255)
 _SHIFT = 2
+
+
+@contextmanager
+def replace_when_done(path: Path) -> Iterator[Path]:
+    """A temporary path beside ``path`` (same suffix, so the container is the same) that takes
+    ``path``'s place when the block ends without error; removed otherwise: a failed or
+    interrupted run leaves no half-written file."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.tmp-{os.getpid()}{path.suffix}")
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 def id_colours(ids: np.ndarray) -> np.ndarray:
@@ -215,8 +231,10 @@ def write_overlay(routine: str | Path, out: str | Path, video: str | Path, camer
             shape[:] = img.shape[:2]
             yield img
 
-    fast = {"crf": "20", "preset": "veryfast"} if Path(video).suffix.lower() in (".mp4", ".mov") else None
-    n = write_video(video, images(), inputs.routine.scene.fps, options=fast)
+    video = Path(video)
+    fast = {"crf": "20", "preset": "veryfast"} if video.suffix.lower() in (".mp4", ".mov") else None
+    with replace_when_done(video) as tmp:
+        n = write_video(tmp, images(), inputs.routine.scene.fps, options=fast)
     used = names if camera is None else (camera,)
     return {"frames": n, "size": (shape[1], shape[0]) if shape else None, "path": Path(video),
             "videos": [c for c in used if c in inputs.videos], "canvas": [c for c in used if c not in inputs.videos]}

@@ -32,7 +32,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from ..errors import InputError
-from .overlay import B_BUF, DETECTION, id_colours, load_overlay_inputs
+from .overlay import B_BUF, DETECTION, id_colours, load_overlay_inputs, replace_when_done
 
 TARGET = (230, 30, 30)  # RGB
 GT = (40, 200, 80)
@@ -242,19 +242,21 @@ def write_recording(routine: str | Path, out: str | Path, rrd: str | Path, video
     inputs = load_overlay_inputs(routine, out)
     r = inputs.routine
     rrd = Path(rrd)
-    rrd.parent.mkdir(parents=True, exist_ok=True)
-    rec = rr.RecordingStream("gymtrack")
-    rec.save(str(rrd))
     say = progress or (lambda _msg: None)
-    _log_static_scene(rec, rr, r.scene)
-    first, offsets = r.scene.first_frame, r.scene.video_offsets
-    video_entities = _log_cameras(rec, rr, r.rig, inputs.videos if videos else {}, first, offsets)
-    say(f"cameras: {len(r.rig)}, videos: {len(video_entities)}")
-    gt = _log_gt(rec, rr, r.path, r.camera_names)
-    counts = _log_3d(rec, rr, inputs, r.path, Path(out))
-    _log_2d(rec, rr, inputs, gt)
-    rec.flush()
-    rec.disconnect()
+    with replace_when_done(rrd) as tmp:
+        rec = rr.RecordingStream("gymtrack")
+        rec.save(str(tmp))
+        try:
+            _log_static_scene(rec, rr, r.scene)
+            first, offsets = r.scene.first_frame, r.scene.video_offsets
+            video_entities = _log_cameras(rec, rr, r.rig, inputs.videos if videos else {}, first, offsets)
+            say(f"cameras: {len(r.rig)}, videos: {len(video_entities)}")
+            gt = _log_gt(rec, rr, r.path, r.camera_names)
+            counts = _log_3d(rec, rr, inputs, r.path, Path(out))
+            _log_2d(rec, rr, inputs, gt)
+        finally:
+            rec.flush()
+            rec.disconnect()
     counts.update(detections=len(r.detections), boxes=len(inputs.outputs.boxes), b_buf=len(inputs.outputs.target_boxes),
                   keypoints=0 if inputs.poses is None else len(inputs.poses), ground_truth=gt is not None,
                   videos=video_entities, path=rrd)
