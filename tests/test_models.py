@@ -17,7 +17,7 @@ from onnx_standins import affine_graph, lookup_graph, yolox_rows  # noqa: E402
 
 from gymtrack.detections import Detections  # noqa: E402
 from gymtrack.errors import InputError  # noqa: E402
-from gymtrack.models import Detector, DetectorOptions, PoseModel, PoseOptions, check_model, check_signature  # noqa: E402
+from gymtrack.models import Detector, PoseModel, PoseOptions, check_model, check_signature  # noqa: E402
 from gymtrack.models.config import load_models_config  # noqa: E402
 from gymtrack.models.image import affine_crops, box_to_centre_scale, crop_affines, letterbox, undo_affine  # noqa: E402
 from gymtrack.models.runtime import Signature, Tensor, open_session, providers_for  # noqa: E402

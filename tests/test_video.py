@@ -9,7 +9,7 @@ pytest.importorskip("av")
 
 from gymtrack.errors import InputError  # noqa: E402
 from gymtrack.formats.scene import scene_from_dict  # noqa: E402
-from gymtrack.formats.video import VideoReader, VideoSet, find_videos, open_videos, write_video  # noqa: E402
+from gymtrack.formats.video import VideoReader, find_videos, open_videos, write_video  # noqa: E402
 
 
 def numbered(n: int, h: int = 48, w: int = 64, base: int = 0, gray: bool = False, step: int = 2):
