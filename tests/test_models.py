@@ -13,7 +13,7 @@ import pytest
 pytest.importorskip("onnxruntime")
 pytest.importorskip("onnx")
 
-from onnx_standins import affine_graph, lookup_graph, yolox_rows  # noqa: E402
+from onnx_standins import affine_graph, code_pixel, lookup_graph, yolox_rows  # noqa: E402
 
 from gymtrack.detections import Detections  # noqa: E402
 from gymtrack.errors import InputError  # noqa: E402
@@ -121,9 +121,9 @@ def test_lookup_standin_reads_the_frame_code(tmp_path):
         table[f] = yolox_rows((128, 128), np.array([[20 + 10 * f, 40, 16, 32]]), np.array([1.0]))
     det = Detector(lookup_graph(tmp_path / "l.onnx", ["batch", 3, 128, 128], [("output", table)]))
     imgs = []
-    for f in (3, 1):
+    for f in (3, 1):  # frame codes drawn in the top-left corner
         im = black()
-        im[:32, :32] = (f, 0, 0)
+        im[:32, :32] = code_pixel(f)
         imgs.append(im)
     (b3, _), (b1, _) = det.detect(imgs)
     r = 128 / 1920
