@@ -266,3 +266,14 @@ def test_models_yaml(tmp_path):
     (tmp_path / "bad.yaml").write_text("detector:\n  nms: 0.5\n")
     with pytest.raises(InputError, match="bad.yaml.*detector.nms"):
         load_models_config(tmp_path / "bad.yaml")
+
+
+def test_to_blob_normalises_and_swaps_channels():
+    from gymtrack.models.image import to_blob
+
+    batch = np.random.default_rng(0).integers(0, 256, (2, 5, 7, 3), dtype=np.uint8)
+    mean, std = (123.675, 116.28, 103.53), (58.395, 57.12, 57.375)
+    want = ((batch[..., ::-1].astype(np.float64) - mean) / std).transpose(0, 3, 1, 2)
+    assert np.allclose(to_blob(batch, rgb=True, mean=mean, std=std), want, atol=1e-5)
+    assert np.array_equal(to_blob(batch), batch.transpose(0, 3, 1, 2).astype(np.float32))
+    assert np.allclose(to_blob(batch, rgb=True, scale=1 / 255), batch[..., ::-1].transpose(0, 3, 1, 2) / 255, atol=1e-6)
