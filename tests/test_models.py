@@ -277,3 +277,13 @@ def test_to_blob_normalises_and_swaps_channels():
     assert np.allclose(to_blob(batch, rgb=True, mean=mean, std=std), want, atol=1e-5)
     assert np.array_equal(to_blob(batch), batch.transpose(0, 3, 1, 2).astype(np.float32))
     assert np.allclose(to_blob(batch, rgb=True, scale=1 / 255), batch[..., ::-1].transpose(0, 3, 1, 2) / 255, atol=1e-6)
+
+
+def test_docs_list_the_exports_whose_signatures_are_checked():
+    from pathlib import Path
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "models.md").read_text()
+    for name in ("YOLOX-S", "YOLOX-m Human-Art", "YOLO11", "RTMPose", "HRNet-W32", "ViTPose"):
+        assert name in doc, name
+    for adapter in ("yolox", "yolox_nms", "yolov8", "simcc", "heatmap"):
+        assert f"| `{adapter}` |" in doc, adapter

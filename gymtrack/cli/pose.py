@@ -155,15 +155,17 @@ def demo_pose_table(sim, results: dict, perf_frames: np.ndarray, seed: int = 0) 
     return t
 
 
-def print_pose_claims(con: Console, rows: list[dict]) -> None:
-    """The benchmark's pose targets (PASS / FAIL) as a rich table."""
+def print_pose_claims(con: Console, rows: list[dict]) -> list:
+    """The benchmark's pose targets (PASS / FAIL) as a rich table; returns the claims."""
     from gymtrack.eval.pose_bench import pose_claims
 
     tab = Table(title="Pose targets (MPJPE averaged over apparatus)", title_justify="left")
     for col in ("target", "value", "result", "detail"):
         tab.add_column(col)
     colour = {"PASS": "green", "FAIL": "red"}
-    for c in pose_claims(rows):
+    found = pose_claims(rows)
+    for c in found:
         tab.add_row(c.name, "-" if not np.isfinite(c.value) else f"{c.value:.2f}",
                     f"[{colour.get(c.status, 'yellow')}]{c.status}[/]", c.detail)
     con.print(tab)
+    return found
