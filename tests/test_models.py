@@ -16,7 +16,7 @@ pytest.importorskip("onnx")
 from onnx_standins import affine_graph, code_pixel, lookup_graph, yolox_rows  # noqa: E402
 
 from gymtrack.detections import Detections  # noqa: E402
-from gymtrack.errors import InputError  # noqa: E402
+from gymtrack.errors import GymtrackWarning, InputError  # noqa: E402
 from gymtrack.models import Detector, DetectorOptions, PoseModel, PoseOptions, check_model, check_signature  # noqa: E402
 from gymtrack.models.config import load_models_config  # noqa: E402
 from gymtrack.models.image import affine_crops, box_to_centre_scale, crop_affines, letterbox, undo_affine  # noqa: E402
@@ -249,7 +249,7 @@ def test_providers_and_gpu_fallback_warning(tmp_path):
 
     path = _simcc(tmp_path)
     if "CUDAExecutionProvider" not in onnxruntime.get_available_providers():
-        with pytest.warns(RuntimeWarning, match="asked for cuda.*CPU"):
+        with pytest.warns(GymtrackWarning, match="asked for cuda.*CPU"):
             s = open_session(path, "cuda")
         assert s.provider == "CPUExecutionProvider" and s.fell_back
     with warnings.catch_warnings():

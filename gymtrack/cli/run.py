@@ -17,6 +17,8 @@ from typing import Optional
 import typer
 
 from gymtrack.cli import app
+from gymtrack.cli.options import overwrite_option
+from gymtrack.cli.report import interrupts
 from gymtrack.cli.detect import (build_models, console, detect_report, load_rig_scene, open_routine_videos,
                                  run_detector, stage_progress, times_table, write_detections_atomic)
 
@@ -24,7 +26,7 @@ from gymtrack.cli.detect import (build_models, console, detect_report, load_rig_
 @app.command()
 def run(
     routine: Path = typer.Argument(..., help="routine folder (cameras.yaml, scene.yaml, videos/<camera>.*)"),
-    out: Path = typer.Option(..., "--out", "-o", help="output folder"),
+    out: Path = typer.Option(..., "--out", "-o", help="output folder (replaced whole, atomically, when the run completes)"),
     detector: Optional[Path] = typer.Option(None, "--detector", help="detector ONNX file (or detector.path in --models)"),
     pose_model: Optional[Path] = typer.Option(None, "--pose-model", help="pose ONNX file (or pose.path in --models)"),
     models_yaml: Optional[Path] = typer.Option(None, "--models", help="models.yaml with paths and adapter options"),
@@ -32,27 +34,40 @@ def run(
     mode: str = typer.Option("cascade", "--mode", "-m", help="cascade | triangulation | plane"),
     all_tracks: bool = typer.Option(False, "--all-tracks", help="pose and lift every 3D track, not only the target"),
     lift: str = typer.Option("robust", "--lift", help="dlt | robust"),
+    overwrite: bool = overwrite_option(),
 ) -> None:
     """Videos -> detections -> tracks -> 2D poses in b_buf -> 3D poses, in one command."""
-    from gymtrack.cli.pose import pose_summary_table
-    from gymtrack.cli.track import summary_table
     from gymtrack.errors import InputError
-    from gymtrack.formats.keypoints import write_keypoints
-    from gymtrack.formats.outputs import write_outputs
-    from gymtrack.formats.poses3d import write_poses_3d
-    from gymtrack.models import pose_videos
-    from gymtrack.pose.stage import LIFT_METHODS, lift_poses, pose_model_boxes
-    from gymtrack.tracking.tracker import MODES, track_detections
+    from gymtrack.formats.atomic import atomic_output
+    from gymtrack.pose.stage import LIFT_METHODS
+    from gymtrack.tracking.tracker import MODES
 
     if mode not in MODES:
         raise InputError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}", field="--mode")
     if lift not in LIFT_METHODS:
         raise InputError(f"unknown lifting method {lift!r}; choose one of {', '.join(LIFT_METHODS)}", field="--lift")
     out = Path(out)
-    if out.exists() and not out.is_dir():
-        raise InputError("the output path exists and is not a folder", source=out)
     rig, scene = load_rig_scene(routine)
     det, pm = build_models(models_yaml, detector, pose_model, device, need_detector=True, need_pose=True)
+    inputs = {"routine": Path(routine).absolute(), "detector": det.session.path.absolute(),
+              "pose_model": pm.session.path.absolute(), "mode": mode, "lift": lift, "all_tracks": all_tracks}
+    with interrupts(), atomic_output(out, "run", inputs, overwrite=overwrite, protect=[routine]) as staging:
+        times = _stages(routine, staging, rig, scene, det, pm, mode, all_tracks, lift)
+    console.print(times_table(times))
+    console.print(f"outputs written to [bold]{out}[/]")
+
+
+def _stages(routine: Path, out: Path, rig, scene, det, pm, mode: str, all_tracks: bool, lift: str) -> list:
+    """The four stages into ``out`` (the staging folder); returns (stage, seconds, frames) rows."""
+    from gymtrack.cli.pose import pose_summary_table
+    from gymtrack.cli.track import summary_table
+    from gymtrack.formats.keypoints import write_keypoints
+    from gymtrack.formats.outputs import write_outputs
+    from gymtrack.formats.poses3d import write_poses_3d
+    from gymtrack.models import pose_videos
+    from gymtrack.pose.stage import lift_poses, pose_model_boxes
+    from gymtrack.tracking.tracker import track_detections
+
     console.print(f"detector {det.session.path.name} ({det.kind}, {det.provider}); "
                   f"pose model {pm.session.path.name} ({pm.kind}, {pm.skeleton.name}, {pm.provider})", highlight=False)
     times = []
@@ -88,5 +103,4 @@ def run(
     write_poses_3d(out / "poses_3d.csv", res.poses3d)
     times.append(("lift", time.perf_counter() - t0, d.frames))
     console.print(pose_summary_table(res.summary()))
-    console.print(times_table(times))
-    console.print(f"outputs written to [bold]{out}[/]")
+    return times
