@@ -3,6 +3,8 @@
 * ``gymtrack simulate --apparatus A --n-cam {2,3,4} --seed N [--seconds S] --out DIR [--plot]``
   writes one routine folder (``shared/formats.md``): cameras.yaml, scene.yaml,
   detections/<camera>.txt and gt/. The same seed gives the same files bit for bit.
+  ``--video [--video-size W]`` also renders ``videos/<camera>.mp4`` (:mod:`gymtrack.simulate.render`);
+  the other files do not change.
 * ``gymtrack simulate-suite --per-apparatus K --out DIR [--seconds S] [--seed N]`` writes the
   7 apparatus x K routines x n_cam 2, 3, 4 grid as ``DIR/<apparatus>/ncam<n>/r<k>/`` and an index
   ``DIR/suite.json`` (path, apparatus, n_cam, seed of every routine).
@@ -40,12 +42,25 @@ def simulate(
     seconds: Optional[float] = typer.Option(None, "--seconds", help="routine length (default 60 s, vault 20 s; 0 = default)"),
     out: Path = typer.Option(..., "--out", "-o", help="routine folder to write"),
     plot: bool = typer.Option(False, "--plot", help="also write plot_top.png and plot_side.png (needs matplotlib)"),
+    video: bool = typer.Option(False, "--video", help="also render every view to videos/<camera>.mp4 (needs the 'video' extra)"),
+    video_size: int = typer.Option(0, "--video-size", help="rendered frame width in pixels (0: the cameras' own; smaller "
+                                   "for previews and tests -- frame pixels are then camera pixels times width / camera width)"),
 ) -> None:
     """Simulate one gymnastics routine seen by four cameras, with ground truth."""
+    from gymtrack.errors import InputError
     from gymtrack.simulate import simulate_routine
 
+    if video_size < 0 or 0 < video_size < 16:
+        raise InputError(f"--video-size must be 0 or a width of at least 16 pixels, got {video_size}", field="--video-size")
     t0 = time.perf_counter()
     sim = simulate_routine(apparatus, n_cam, seed, _seconds(seconds), out=out, plot=plot)
+    t_video = None
+    if video:
+        from gymtrack.simulate.render import write_videos
+
+        t1 = time.perf_counter()
+        paths = write_videos(sim, out, video_size or None, progress=lambda cam, k: console.print(f"  rendered {cam}: {k} frames"))
+        t_video = (time.perf_counter() - t1, sum(p.stat().st_size for p in paths.values()))
     s = sim.summary()
     tab = Table(title=f"Simulated {apparatus}, seed {seed}, n_cam {n_cam}", title_justify="left")
     tab.add_column("what")
@@ -59,6 +74,8 @@ def simulate(
     tab.add_row("views allowed to see the target", ", ".join(s["target_views"]))
     frac = "  ".join(f"{k}:{float(v):.2f}" for k, v in s["target_views_detected_fraction"].items())
     tab.add_row("target detected in k views (performing)", frac)
+    if t_video is not None:
+        tab.add_row("videos (render + encode)", f"{t_video[0]:.1f} s, {t_video[1] / 1e6:.1f} MB")
     tab.add_row("seconds", f"{time.perf_counter() - t0:.2f}")
     console.print(tab)
     console.print(f"wrote [bold]{out}[/]")

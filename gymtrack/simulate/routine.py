@@ -71,6 +71,7 @@ class SimulatedRoutine:
     phase, flight: (T,) the target's phase label (:data:`gymtrack.simulate.motion.PHASE_NAMES`)
         and ballistic-flight flag.
     drift: (T,) the target's added off-plane drift, metres.
+    body_points: (P, T, 26, 3) every body point (:data:`~.body.POINT_NAMES`), NaN where not alive.
     """
 
     apparatus: str
@@ -101,6 +102,7 @@ class SimulatedRoutine:
     layout: Layout | None = None
     rig_info: dict = field(default_factory=dict)
     dropped_at_border: int = 0
+    body_points: np.ndarray | None = None
 
     # ------------------------------------------------------------------ target
     target_id: int = TARGET_ID
@@ -368,7 +370,7 @@ def _simulate_scene(apparatus: str, seed: int, seconds: float) -> _Scene:
         "alive": alive, "centre": centre, "top_z": topbot[..., 0], "bottom_z": topbot[..., 1], "posture": posture,
         "keypoints": points[:, :, :17].astype(np.float64),
         "phase": motion.phase, "flight": motion.flight,
-        "drift": drift,
+        "drift": drift, "body_points": points,
     }
     return _Scene(apparatus, seed, seconds, rig, rig_info, layout, people, events, arrays, tb, unusual, blind, s_det)
 
@@ -399,6 +401,7 @@ def _finish(sc: _Scene, n_cam: int, params: DetectorParams | None) -> SimulatedR
         top_z=a["top_z"], bottom_z=a["bottom_z"], posture=a["posture"], keypoints=a["keypoints"], true_boxes=sc.tb,
         detections=dets, det_person=det_person.astype(np.int64), target_views=views, phase=a["phase"], flight=a["flight"],
         drift=a["drift"], events=sc.events, layout=sc.layout, rig_info=sc.rig_info, dropped_at_border=out.dropped_at_border,
+        body_points=a["body_points"],
     )
 
 
