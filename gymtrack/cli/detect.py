@@ -46,18 +46,13 @@ def open_routine_videos(routine: Path, rig, scene, required: bool = True):
     from gymtrack.errors import InputError
     from gymtrack.formats.video import open_videos
 
-    try:
-        videos = open_videos(routine, rig.names, scene.first_frame, scene.video_offsets, required=required)
+    try:  # boxes and keypoints are written in the calibration's pixels, whatever the video's size
+        return open_videos(routine, rig.names, scene.first_frame, scene.video_offsets, required=required,
+                           sizes=[tuple(int(v) for v in cam.size) for cam in rig])
     except InputError as exc:
         if exc.field and exc.field.startswith("video_offsets"):
             raise exc.located(source=Path(routine) / "scene.yaml") from None
         raise
-    for cam, r in zip(rig, videos.readers):  # boxes and crops are in the calibration's pixels
-        if r is not None and tuple(r.size) != tuple(int(v) for v in cam.size):
-            videos.close()
-            raise InputError(f"the video is {r.size[0]}x{r.size[1]} but camera {cam.name!r} is calibrated at "
-                             f"{cam.size[0]}x{cam.size[1]}: use the original video or recalibrate", source=r.path)
-    return videos
 
 
 def build_models(models_yaml: Optional[Path], detector: Optional[Path] = None, pose: Optional[Path] = None,
