@@ -21,11 +21,12 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from gymtrack.cli import app
+from gymtrack.cli.options import calibration_format_option, units_option
 
 console = Console()
 
 
-def load_rig_scene(routine: Path):
+def load_rig_scene(routine: Path, calibration_format: Optional[str] = None, units: Optional[str] = None):
     """(rig, scene) of a routine folder that may not have ``detections/`` yet."""
     from gymtrack.errors import RoutineError
     from gymtrack.formats.calibration import find_calibration, read_calibration
@@ -37,7 +38,8 @@ def load_rig_scene(routine: Path):
     if not (routine / "scene.yaml").is_file():
         raise RoutineError("missing scene.yaml: write one with at least 'apparatus: <preset>' (see docs/formats.md)",
                            source=routine / "scene.yaml")
-    rig, _ = read_calibration(find_calibration(routine, error=RoutineError))
+    opts = {} if units is None else {"units": units}
+    rig, _ = read_calibration(find_calibration(routine, error=RoutineError), calibration_format, **opts)
     return rig, load_scene(routine / "scene.yaml")
 
 
@@ -134,11 +136,13 @@ def detect(
     models_yaml: Optional[Path] = typer.Option(None, "--models", help="models.yaml with paths and adapter options"),
     device: Optional[str] = typer.Option(None, "--device", help="cpu | cuda | tensorrt | auto (default cpu)"),
     force: bool = typer.Option(False, "--force", help="replace existing detections/<camera>.txt files"),
+    calibration_format: Optional[str] = calibration_format_option(),
+    units: Optional[str] = units_option(),
 ) -> None:
     """Run a person detector on the routine's videos and write detections/<camera>.txt."""
     from gymtrack.errors import InputError
 
-    rig, scene = load_rig_scene(routine)
+    rig, scene = load_rig_scene(routine, calibration_format, units)
     out = Path(routine) / "detections"
     existing = [n for n in rig.names if (out / f"{n}.txt").exists()]
     if existing and not force:

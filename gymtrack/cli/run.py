@@ -17,7 +17,7 @@ from typing import Optional
 import typer
 
 from gymtrack.cli import app
-from gymtrack.cli.options import overwrite_option
+from gymtrack.cli.options import calibration_format_option, overwrite_option, units_option
 from gymtrack.cli.report import interrupts
 from gymtrack.cli.detect import (build_models, console, detect_report, load_rig_scene, open_routine_videos,
                                  run_detector, stage_progress, times_table, write_detections_atomic)
@@ -35,6 +35,8 @@ def run(
     all_tracks: bool = typer.Option(False, "--all-tracks", help="pose and lift every 3D track, not only the target"),
     lift: str = typer.Option("robust", "--lift", help="dlt | robust"),
     overwrite: bool = overwrite_option(),
+    calibration_format: Optional[str] = calibration_format_option(),
+    units: Optional[str] = units_option(),
 ) -> None:
     """Videos -> detections -> tracks -> 2D poses in b_buf -> 3D poses, in one command."""
     from gymtrack.errors import InputError
@@ -47,10 +49,11 @@ def run(
     if lift not in LIFT_METHODS:
         raise InputError(f"unknown lifting method {lift!r}; choose one of {', '.join(LIFT_METHODS)}", field="--lift")
     out = Path(out)
-    rig, scene = load_rig_scene(routine)
+    rig, scene = load_rig_scene(routine, calibration_format, units)
     det, pm = build_models(models_yaml, detector, pose_model, device, need_detector=True, need_pose=True)
     inputs = {"routine": Path(routine).absolute(), "detector": det.session.path.absolute(),
-              "pose_model": pm.session.path.absolute(), "mode": mode, "lift": lift, "all_tracks": all_tracks}
+              "pose_model": pm.session.path.absolute(), "mode": mode, "lift": lift, "all_tracks": all_tracks,
+              "calibration_format": calibration_format, "units": units}
     with interrupts(), atomic_output(out, "run", inputs, overwrite=overwrite, protect=[routine]) as staging:
         times = _stages(routine, staging, rig, scene, det, pm, mode, all_tracks, lift)
     console.print(times_table(times))
