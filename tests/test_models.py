@@ -107,6 +107,16 @@ def test_yolox_with_nms_in_graph(tmp_path):
     assert np.allclose(b, [[810, 240, 1110, 840]], atol=1e-3) and np.allclose(s, [0.7])
 
 
+def test_dynamic_input_size_must_match_the_grid(tmp_path):
+    rows = np.zeros((1, 336, 6), np.float32)  # a 128 x 128 grid
+    path = affine_graph(tmp_path / "dyn.onnx", ["batch", 3, "h", "w"], [("output", rows, rows)])
+    with pytest.raises(InputError, match="input_size"):
+        Detector(path)
+    assert len(Detector(path, DetectorOptions(input_size=(128, 128))).detect([black()])[0][0]) == 0
+    with pytest.raises(InputError, match="336 rows for a 64x64 input.*84"):
+        Detector(path, DetectorOptions(input_size=(64, 64))).detect([black()])
+
+
 def test_detector_refuses_a_pose_model(tmp_path):
     sx = np.zeros((1, 17, 384), np.float32)
     sy = np.zeros((1, 17, 512), np.float32)
