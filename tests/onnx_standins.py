@@ -7,8 +7,8 @@ known. Two kinds:
   shape with batch 1; ``max(x_b)`` the largest input value of batch item b), so a test controls
   what each image of a batch gives by its brightest pixel.
 * :func:`lookup_graph`: an "oracle" stand-in -- the output of batch item b is ``table[code_b]``, where
-  ``code_b = x[b, 0, 0, 0] + 256 * x[b, 1, 0, 0]`` (blue + 256 * green of the input's top-left
-  pixel; tests draw the frame number there), so a stand-in detector returns known boxes per frame.
+  ``code_b`` is read from the colour of the input's top-left pixel (:func:`code_pixel`; tests draw
+  a (camera, frame) code there), so a stand-in detector returns known boxes per frame and view.
 * :func:`template_pose_graph`: a SimCC stand-in whose joints sit at fixed places in the crop.
 """
 
@@ -62,20 +62,30 @@ def affine_graph(path, input_shape: Sequence, outputs: Sequence[tuple[str, np.nd
     return _save(path, nodes, [_vi(input_name, input_shape)], outs, inits)
 
 
+QUANTUM, BASE = 16, 16  # a code digit d is drawn as the level 16 d (0..240): H.264 moves it by up to 4
+
+
+def code_pixel(code: int) -> tuple[int, int, int]:
+    """The (B, G, R) colour :func:`lookup_graph` reads as ``code`` (0 <= code < 4096)."""
+    return tuple(QUANTUM * ((int(code) // BASE ** i) % BASE) for i in range(3))  # type: ignore[return-value]
+
+
 def lookup_graph(path, input_shape: Sequence, tables: Sequence[tuple[str, np.ndarray]], input_name: str = "images"
                  ) -> Path:
     """``tables``: (name, T) with T (F, ...); output ``name`` of batch item b is ``T[code_b]``."""
     arr = numpy_helper.from_array
-    inits = [arr(np.array([0, 0, 0], np.int64), "starts"), arr(np.array([2, 1, 1], np.int64), "ends"),
-             arr(np.array([1, 2, 3], np.int64), "axes"), arr(np.array([-1, 2], np.int64), "shape2"),
-             arr(np.array([1.0, 256.0], np.float32), "weights"), arr(np.array([1], np.int64), "axis1")]
+    inits = [arr(np.array([0, 0, 0], np.int64), "starts"), arr(np.array([3, 1, 1], np.int64), "ends"),
+             arr(np.array([1, 2, 3], np.int64), "axes"), arr(np.array([-1, 3], np.int64), "shape3"),
+             arr(np.array([1.0 / QUANTUM] * 3, np.float32), "inv_q"),
+             arr(np.array([1.0, BASE, BASE * BASE], np.float32), "weights"), arr(np.array([1], np.int64), "axis1")]
     nodes = [
-        helper.make_node("Slice", [input_name, "starts", "ends", "axes"], ["px"]),  # x[:, 0:2, 0:1, 0:1]
-        helper.make_node("Reshape", ["px", "shape2"], ["bg"]),                      # (B, 2) blue, green
-        helper.make_node("Mul", ["bg", "weights"], ["bgw"]),
-        helper.make_node("ReduceSum", ["bgw", "axis1"], ["codef"], keepdims=0),     # (B,)
-        helper.make_node("Round", ["codef"], ["coder"]),
-        helper.make_node("Cast", ["coder"], ["code"], to=TensorProto.INT64),
+        helper.make_node("Slice", [input_name, "starts", "ends", "axes"], ["px"]),  # x[:, 0:3, 0:1, 0:1]
+        helper.make_node("Reshape", ["px", "shape3"], ["bgr"]),                     # (B, 3)
+        helper.make_node("Mul", ["bgr", "inv_q"], ["digits_f"]),
+        helper.make_node("Round", ["digits_f"], ["digits"]),
+        helper.make_node("Mul", ["digits", "weights"], ["weighted"]),
+        helper.make_node("ReduceSum", ["weighted", "axis1"], ["codef"], keepdims=0),  # (B,)
+        helper.make_node("Cast", ["codef"], ["code"], to=TensorProto.INT64),
     ]
     outs = []
     for name, T in tables:
@@ -89,7 +99,8 @@ def lookup_graph(path, input_shape: Sequence, tables: Sequence[tuple[str, np.nda
 def yolox_rows(size: tuple[int, int], boxes_cxcywh: np.ndarray, scores: np.ndarray, n_classes: int = 1,
                classes: np.ndarray | None = None, strides=(8, 16, 32)) -> np.ndarray:
     """(N, 5 + C) raw-head rows (YOLOX layout) holding ``boxes`` (input pixels) at the anchor of their
-    centre (stride 8; the next free stride when taken); every other row has score 0."""
+    centre (stride 8; the next stride, then any free anchor, when taken: the decoding
+    ``(x + gx) s`` reaches any point from any anchor); every other row has score 0."""
     from gymtrack.models.detector import grid_points
 
     grid, stride = grid_points(size, strides)
@@ -107,7 +118,8 @@ def yolox_rows(size: tuple[int, int], boxes_cxcywh: np.ndarray, scores: np.ndarr
             if i not in taken:
                 break
         else:
-            raise ValueError("no free anchor for a box")
+            i = next(j for j in range(len(grid)) if j not in taken)
+            gx, gy, s = int(grid[i, 0]), int(grid[i, 1]), float(stride[i])
         taken.add(i)
         rows[i, 0:2] = b[:2] / s - (gx, gy)
         rows[i, 2:4] = np.log(np.maximum(b[2:4], 1e-3) / s)

@@ -13,11 +13,11 @@ import pytest
 pytest.importorskip("onnxruntime")
 pytest.importorskip("onnx")
 
-from onnx_standins import affine_graph, lookup_graph, yolox_rows  # noqa: E402
+from onnx_standins import affine_graph, code_pixel, lookup_graph, yolox_rows  # noqa: E402
 
 from gymtrack.detections import Detections  # noqa: E402
-from gymtrack.errors import InputError  # noqa: E402
-from gymtrack.models import Detector, PoseModel, PoseOptions, check_model, check_signature  # noqa: E402
+from gymtrack.errors import GymtrackWarning, InputError  # noqa: E402
+from gymtrack.models import Detector, DetectorOptions, PoseModel, PoseOptions, check_model, check_signature  # noqa: E402
 from gymtrack.models.config import load_models_config  # noqa: E402
 from gymtrack.models.image import affine_crops, box_to_centre_scale, crop_affines, letterbox, undo_affine  # noqa: E402
 from gymtrack.models.runtime import Signature, Tensor, open_session, providers_for  # noqa: E402
@@ -107,6 +107,16 @@ def test_yolox_with_nms_in_graph(tmp_path):
     assert np.allclose(b, [[810, 240, 1110, 840]], atol=1e-3) and np.allclose(s, [0.7])
 
 
+def test_dynamic_input_size_must_match_the_grid(tmp_path):
+    rows = np.zeros((1, 336, 6), np.float32)  # a 128 x 128 grid
+    path = affine_graph(tmp_path / "dyn.onnx", ["batch", 3, "h", "w"], [("output", rows, rows)])
+    with pytest.raises(InputError, match="input_size"):
+        Detector(path)
+    assert len(Detector(path, DetectorOptions(input_size=(128, 128))).detect([black()])[0][0]) == 0
+    with pytest.raises(InputError, match="336 rows for a 64x64 input.*84"):
+        Detector(path, DetectorOptions(input_size=(64, 64))).detect([black()])
+
+
 def test_detector_refuses_a_pose_model(tmp_path):
     sx = np.zeros((1, 17, 384), np.float32)
     sy = np.zeros((1, 17, 512), np.float32)
@@ -121,9 +131,9 @@ def test_lookup_standin_reads_the_frame_code(tmp_path):
         table[f] = yolox_rows((128, 128), np.array([[20 + 10 * f, 40, 16, 32]]), np.array([1.0]))
     det = Detector(lookup_graph(tmp_path / "l.onnx", ["batch", 3, 128, 128], [("output", table)]))
     imgs = []
-    for f in (3, 1):
+    for f in (3, 1):  # frame codes drawn in the top-left corner
         im = black()
-        im[:32, :32] = (f, 0, 0)
+        im[:32, :32] = code_pixel(f)
         imgs.append(im)
     (b3, _), (b1, _) = det.detect(imgs)
     r = 128 / 1920
@@ -249,7 +259,7 @@ def test_providers_and_gpu_fallback_warning(tmp_path):
 
     path = _simcc(tmp_path)
     if "CUDAExecutionProvider" not in onnxruntime.get_available_providers():
-        with pytest.warns(RuntimeWarning, match="asked for cuda.*CPU"):
+        with pytest.warns(GymtrackWarning, match="asked for cuda.*CPU"):
             s = open_session(path, "cuda")
         assert s.provider == "CPUExecutionProvider" and s.fell_back
     with warnings.catch_warnings():
@@ -266,3 +276,24 @@ def test_models_yaml(tmp_path):
     (tmp_path / "bad.yaml").write_text("detector:\n  nms: 0.5\n")
     with pytest.raises(InputError, match="bad.yaml.*detector.nms"):
         load_models_config(tmp_path / "bad.yaml")
+
+
+def test_to_blob_normalises_and_swaps_channels():
+    from gymtrack.models.image import to_blob
+
+    batch = np.random.default_rng(0).integers(0, 256, (2, 5, 7, 3), dtype=np.uint8)
+    mean, std = (123.675, 116.28, 103.53), (58.395, 57.12, 57.375)
+    want = ((batch[..., ::-1].astype(np.float64) - mean) / std).transpose(0, 3, 1, 2)
+    assert np.allclose(to_blob(batch, rgb=True, mean=mean, std=std), want, atol=1e-5)
+    assert np.array_equal(to_blob(batch), batch.transpose(0, 3, 1, 2).astype(np.float32))
+    assert np.allclose(to_blob(batch, rgb=True, scale=1 / 255), batch[..., ::-1].transpose(0, 3, 1, 2) / 255, atol=1e-6)
+
+
+def test_docs_list_the_exports_whose_signatures_are_checked():
+    from pathlib import Path
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "models.md").read_text()
+    for name in ("YOLOX-S", "YOLOX-m Human-Art", "YOLO11", "RTMPose", "HRNet-W32", "ViTPose"):
+        assert name in doc, name
+    for adapter in ("yolox", "yolox_nms", "yolov8", "simcc", "heatmap"):
+        assert f"| `{adapter}` |" in doc, adapter

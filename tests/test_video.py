@@ -104,3 +104,14 @@ def test_scene_video_keys():
     assert s.video_offsets == {"cam1": -4} and s.to_yaml_dict()["first_frame"] == 0
     with pytest.raises(InputError, match="video_offsets"):
         scene_from_dict({"apparatus": "vault", "video_offsets": {"cam1": "x"}})
+
+
+def test_open_videos_scales_a_smaller_video_of_the_same_aspect(tmp_path):
+    (tmp_path / "videos").mkdir()
+    write_video(tmp_path / "videos" / "a.mkv", numbered(3, h=48, w=64), 30)
+    with open_videos(tmp_path, ["a"], sizes=[(256, 192)]) as vs:
+        assert vs.pixel_scale.tolist() == [4.0]
+    with open_videos(tmp_path, ["a"]) as vs:
+        assert vs.pixel_scale.tolist() == [1.0]
+    with pytest.raises(InputError, match="64x48 but camera 'a' is calibrated at 256x144 .another aspect"):
+        open_videos(tmp_path, ["a"], sizes=[(256, 144)])

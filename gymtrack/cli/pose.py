@@ -6,7 +6,9 @@ model runs; the 3D pose is triangulated from its keypoints (:mod:`gymtrack.pose.
 Reads the track outputs in ``<out>`` (``gymtrack track <routine> --out <out>`` first) and 2D poses
 from ``<routine>/keypoints/`` (or ``--keypoints DIR``), or, for a simulated routine (one with
 ``gt/keypoints_3d.csv``), runs the simulated pose model (``--simulated-model``) on the b_buf boxes
-in ``<out>/target_2d/`` (and every track's boxes in ``<out>/tracks_2d/`` with ``--all-tracks``).
+in ``<out>/target_2d/`` (and every track's boxes in ``<out>/tracks_2d/`` with ``--all-tracks``),
+or runs an ONNX pose model (``--model FILE.onnx``, :mod:`gymtrack.models.pose`) on affine crops of
+those boxes from ``<routine>/videos/``.
 Writes ``<out>/keypoints/<camera>.json`` (every pose, with the track it was assigned to) and
 ``<out>/poses_3d.csv``, and prints where every input pose went.
 """
@@ -48,6 +50,22 @@ def simulated_model_poses(routine, result, all_tracks: bool, seed: int = 0):
     return simulate_pose_model(routine.rig, joints, person_id, frames, boxes, seed=seed)
 
 
+def model_poses(routine, result, model, models_yaml, device, all_tracks: bool):
+    """The pose model (``--model`` / ``models.yaml``) on the b_buf crops of the routine's videos -> Poses2D."""
+    from gymtrack.cli.detect import build_models, open_routine_videos, stage_progress
+    from gymtrack.models import pose_videos
+    from gymtrack.pose.stage import pose_model_boxes
+
+    _, pm = build_models(models_yaml, pose=model, device=device, need_pose=True)
+    boxes = pose_model_boxes(result, all_tracks)
+    with open_routine_videos(routine.path, routine.rig, routine.scene) as videos, stage_progress("pose model") as bar:
+        task = bar.add_task("pose", total=None)
+        run = pose_videos(videos, pm, boxes, progress=lambda k, n: bar.update(task, completed=k, total=n))
+    console.print(f"{pm.kind} pose model on {pm.provider}: {len(run.poses)} poses from {run.boxes} boxes"
+                  + (f" ({run.no_image} boxes without a video frame)" if run.no_image else ""), highlight=False)
+    return run.poses
+
+
 def pose_summary_table(summary: dict, title: str = "Pose stage") -> Table:
     """Where every input pose went, and what was lifted."""
     t = Table(title=title, title_justify="left")
@@ -79,6 +97,9 @@ def pose(
     seed: int = typer.Option(0, "--seed", help="seed of the simulated pose model"),
     calibration_format: Optional[str] = calibration_format_option(),
     units: Optional[str] = units_option(),
+    model: Optional[Path] = typer.Option(None, "--model", help="pose ONNX file: run it on the b_buf crops of ROUTINE/videos"),
+    models_yaml: Optional[Path] = typer.Option(None, "--models", help="models.yaml (pose.path and adapter options)"),
+    device: Optional[str] = typer.Option(None, "--device", help="cpu | cuda | tensorrt | auto (with --model)"),
 ) -> None:
     """Lift 2D keypoints in the tracker's boxes to the target's 3D pose (every track's with --all-tracks)."""
     from gymtrack.errors import InputError
@@ -89,11 +110,14 @@ def pose(
 
     if lift not in LIFT_METHODS:
         raise InputError(f"unknown lifting method {lift!r}; choose one of {', '.join(LIFT_METHODS)}", field="--lift")
-    if simulated_model and keypoints is not None:
-        raise InputError("give either --keypoints or --simulated-model, not both", field="--keypoints")
+    use_model = model is not None or models_yaml is not None
+    if sum([simulated_model, keypoints is not None, use_model]) > 1:
+        raise InputError("give one of --keypoints, --simulated-model, --model", field="--keypoints")
     r, _ = read_routine(routine, calibration_format, units)
     result = read_track_result(out, r.rig.names)
-    if simulated_model:
+    if use_model:
+        poses = model_poses(r, result, model, models_yaml, device, all_tracks)
+    elif simulated_model:
         with console.status("running the simulated pose model on the boxes"):
             poses = simulated_model_poses(r, result, all_tracks, seed)
     else:

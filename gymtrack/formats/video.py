@@ -194,12 +194,16 @@ class VideoSet:
     """The videos of several cameras read together, one decoding thread per camera.
 
     ``readers`` in rig order (None for a camera without a video). :meth:`read` returns one image
-    per camera (None where the camera has no video or not that frame).
+    per camera (None where the camera has no video or not that frame). ``pixel_scale`` (C,):
+    calibration pixels per video pixel of each camera (1 when the video has the calibrated size;
+    e.g. 4 for a 480-pixel-wide preview of a 1920 camera).
     """
 
-    def __init__(self, readers: Sequence[VideoReader | None], camera_names: Sequence[str]) -> None:
+    def __init__(self, readers: Sequence[VideoReader | None], camera_names: Sequence[str],
+                 pixel_scale: Sequence[float] | None = None) -> None:
         self.readers = list(readers)
         self.camera_names = tuple(camera_names)
+        self.pixel_scale = np.ones(len(self.readers)) if pixel_scale is None else np.asarray(pixel_scale, np.float64)
         self._pool = ThreadPoolExecutor(max_workers=max(1, sum(r is not None for r in self.readers)))
 
     @property
@@ -245,11 +249,14 @@ class VideoSet:
 
 
 def open_videos(routine_folder: str | Path, camera_names: Sequence[str], first_frame: int = 1,
-                video_offsets: Mapping[str, int] | None = None, required: bool = True) -> VideoSet:
+                video_offsets: Mapping[str, int] | None = None, required: bool = True,
+                sizes: Sequence[tuple[int, int]] | None = None) -> VideoSet:
     """A :class:`VideoSet` of a routine's ``videos/`` (``first_frame``/``video_offsets`` as in scene.yaml).
 
     ``required``: raise InputError naming the cameras without a video; otherwise they read None.
     An offset for a camera the rig lacks is an error (a typo would silently leave a view unsynchronised).
+    ``sizes``: the calibrated (width, height) of every camera; a video of another size with the
+    same aspect (within 1 %) gets its :attr:`VideoSet.pixel_scale`, another aspect is an error.
     """
     offsets = dict(video_offsets or {})
     for cam in offsets:
@@ -262,7 +269,19 @@ def open_videos(routine_folder: str | Path, camera_names: Sequence[str], first_f
         raise InputError(f"no video for camera(s) {', '.join(missing)}: add videos/<camera>.mp4 (any container "
                          f"PyAV reads: {', '.join(VIDEO_EXTENSIONS)})", source=Path(routine_folder) / "videos")
     readers = [VideoReader(paths[n], first_frame, offsets.get(n, 0)) if n in paths else None for n in camera_names]
-    return VideoSet(readers, camera_names)
+    scale = np.ones(len(readers))
+    for i, r in enumerate(readers):
+        if r is None or sizes is None:
+            continue
+        (W, H), (w, h) = sizes[i], r.size
+        scale[i] = W / w
+        if abs(H / h - scale[i]) > 0.01 * scale[i]:
+            for x in readers:
+                if x is not None:
+                    x.close()
+            raise InputError(f"the video is {w}x{h} but camera {camera_names[i]!r} is calibrated at {W}x{H} "
+                             "(another aspect ratio): use the original video or recalibrate", source=r.path)
+    return VideoSet(readers, camera_names, scale)
 
 
 def write_video(path: str | Path, frames: Iterable[np.ndarray], fps: float, codec: str | None = None,

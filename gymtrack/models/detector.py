@@ -195,6 +195,10 @@ class Detector:
                ) -> list[tuple[np.ndarray, np.ndarray]]:
         """Model outputs -> per image (M, 4) xyxy raw pixels (clipped to the frame ``shapes`` (h, w)), (M,) scores."""
         o = self.options
+        if self.kind == "yolox" and outputs[0].shape[1] != len(self._grid):
+            raise InputError(f"the model gave {outputs[0].shape[1]} rows for a {self.input_size[0]}x{self.input_size[1]} "
+                             f"input, the stride {'/'.join(map(str, o.strides))} grid has {len(self._grid)}: "
+                             "check input_size and strides in models.yaml", source=self.session.path)
         res = []
         for i, (lb, (h, w)) in enumerate(zip(lbs, shapes)):
             if self.kind == "yolox":

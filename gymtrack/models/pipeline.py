@@ -3,7 +3,9 @@
 Paper: Section III-A (the detector on every frame of every synchronised view) and III-D (the
 top-down pose model on the crops of ``b_buf`` from the full-resolution frames). The frames of
 all cameras are decoded together (:class:`gymtrack.formats.video.VideoSet`, the next frame while
-the model runs on this one) and go through the model as one batch. Time per step is kept in a
+the model runs on this one) and go through the model as one batch. A video smaller than its
+camera's calibration (same aspect) is read as is; boxes and keypoints are scaled to the
+calibration's pixels (``VideoSet.pixel_scale``). Time per step is kept in a
 :class:`StepTimes`; frames and boxes left out are counted, never dropped silently.
 """
 
@@ -85,6 +87,7 @@ def detect_videos(videos: VideoSet, detector: Detector, frames=None, progress: P
             out = detector.infer(blob)
             t = tm.add("detector", t)
             for c, (xyxy, s) in zip(cams, detector.decode(out, lbs, [im.shape[:2] for im in ims])):
+                xyxy = xyxy * videos.pixel_scale[c]  # video -> calibration pixels
                 fr_col.append(np.full(len(s), frame))
                 cam_col.append(np.full(len(s), c))
                 box_col.append(np.column_stack([(xyxy[:, :2] + xyxy[:, 2:]) / 2, xyxy[:, 2:] - xyxy[:, :2]]))
@@ -122,11 +125,13 @@ def pose_videos(videos: VideoSet, model: PoseModel, boxes: Detections, progress:
         run.no_image += int((~have).sum())
         b = b.select(have)
         if len(b):
-            blob, M = model.prepare(images, b.camera.astype(np.int64), b.tlwh)  # type: ignore[arg-type]
+            scale = videos.pixel_scale[b.camera.astype(np.int64)]
+            blob, M = model.prepare(images, b.camera.astype(np.int64), b.tlwh / scale[:, None])  # type: ignore[arg-type]
             t = tm.add("crops", t)
             out = model.infer(blob)
             t = tm.add("pose model", t)
             kp = model.decode(out, M)
+            kp[..., :2] *= scale[:, None, None]  # video -> calibration pixels
             parts.append(Poses2D(np.full(len(b), frame), b.camera, b.track_id, kp, b.tlwh, model.skeleton,
                                  videos.camera_names))
             t = tm.add("output decoding", t)

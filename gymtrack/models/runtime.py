@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
-from ..errors import InputError
+from ..errors import GymtrackWarning, InputError
 
 __all__ = ["DEVICES", "Tensor", "Signature", "Session", "import_ort", "open_session", "providers_for"]
 
@@ -112,7 +112,7 @@ class Session:
 def open_session(path: str | Path, device: str = "cpu", threads: int = 0) -> Session:
     """Open an ONNX model with ONNX Runtime on ``device`` (cpu | cuda | tensorrt | auto).
 
-    Warns (``RuntimeWarning``) when a GPU was asked for and the session runs on CPU instead; the
+    Warns (:class:`~gymtrack.errors.GymtrackWarning`) when a GPU was asked for and the session runs on CPU instead; the
     providers actually used are in :attr:`Session.providers`. Raises InputError for a missing or
     unreadable file.
     """
@@ -135,6 +135,6 @@ def open_session(path: str | Path, device: str = "cpu", threads: int = 0) -> Ses
     if missing or fell_back:
         warnings.warn(f"{path.name}: asked for {device} but {', '.join(missing) or 'the GPU provider'} is not available; "
                       f"running on {got[0] if got else 'CPU'} (install onnxruntime-gpu alone, not beside onnxruntime)",
-                      RuntimeWarning, stacklevel=2)
+                      GymtrackWarning, stacklevel=2)
     sig = Signature(tuple(_tensor(a) for a in sess.get_inputs()), tuple(_tensor(a) for a in sess.get_outputs()))
     return Session(path, sess, sig, got, fell_back or bool(missing))
