@@ -129,7 +129,8 @@ def pose(
     with console.status(f"lifting ({lift})"):
         res = lift_poses(result, r.rig, r.scene, poses, all_tracks=all_tracks, method=lift)
     inputs = {"routine": str(routine), "lift": lift, "all_tracks": all_tracks,
-              "keypoints": "simulated model" if simulated_model else str(keypoints or Path(routine) / "keypoints")}
+              "keypoints": (f"pose model {model or models_yaml}" if use_model else "simulated model" if simulated_model
+                            else str(keypoints or Path(routine) / "keypoints"))}
     with interrupts(), atomic_update(out, "pose", inputs) as staging:  # all or nothing, into the track output
         write_keypoints(staging / "keypoints", res.poses2d)
         write_poses_3d(staging / "poses_3d.csv", res.poses3d)
