@@ -39,7 +39,7 @@ class Consensus:
 def _view_errors(pu, pv, u, v, ok, gate):
     """(C, J, T) reprojection error / gate, capped at 1, and where it is defined (C, J, T), of
     the projections pu, pv (C, J, T)."""
-    r = np.hypot(pu - u, pv - v) / gate[:, None, :]
+    r = np.hypot(pu - u, pv - v) / gate
     m = ok & np.isfinite(r)
     return np.where(m, np.minimum(r, 1.0), 0.0), m
 
@@ -49,7 +49,7 @@ def view_consensus(P: np.ndarray, u: np.ndarray, v: np.ndarray, ok: np.ndarray, 
     """Pick per frame the views that agree and their left/right labelling (see the module doc).
 
     P (C, 3, 4) undistorted projections; u, v (C, J, T) undistorted pixels; ok (C, J, T) found;
-    gate (C, T) pixels; flip (J,) mirror joint of each joint.
+    gate (C, J, T) pixels; flip (J,) mirror joint of each joint.
     """
     C, J, T = u.shape
     present = ok.sum(axis=1) > 0  # (C, T)
