@@ -6,13 +6,19 @@ with Eq. 3. ``method="dlt"`` is exactly that, per joint over the views that foun
 ``method="robust"`` (the default) goes beyond the paper, in this order:
 
 1. confidence-weighted DLT (:mod:`.dlt`): a view's rows weigh its 2D score over the pose's box
-   size (the pixel noise of a top-down model scales with its crop);
+   size (the pixel noise of a top-down model scales with its crop); the all-view solution gives
+   each joint's 2D noise level on this track (:func:`noise_level`), and the gate a view must
+   meet is a multiple of it (it follows the pose model's noise, the joint's difficulty and the
+   calibration's own error; a fixed share of the box rejected a third of the good views);
 2. a per-frame consensus over views (:mod:`.consensus`) that drops views whose reprojection
-   disagrees and reads a view with left and right exchanged where that fits clearly better;
+   disagrees and reads a view with left and right exchanged -- whole body or legs only -- where
+   that fits clearly better; where no two views agree, every view is kept (flagged, low score):
+   robust never estimates fewer joints than ``dlt`` because the consensus failed;
 3. per joint, the worst view is dropped when its reprojection exceeds the gate (3+ views);
 4. the cascade for joints (:mod:`.anchor`): a joint seen by one view, or only by an opposite
    pair, is anchored on the plane through the target's centre parallel to the apparatus
-   plane (given ``centre`` and ``plane_normal``), fused with its rays by their uncertainty;
+   plane (given ``centre`` and ``plane_normal``), fused with its rays by their uncertainty (the
+   plane prior's spread per joint measured on the track where wider than configured);
 5. per-track bone lengths (median over well-observed frames) pull weak joints along their
    line of sight (:func:`.anchor.pull_to_bones`);
 6. temporal smoothing that keeps flight phases sharp (:mod:`.smooth`).
@@ -130,7 +136,8 @@ class Lifted:
     xyz (T, J, 3) world metres, NaN = not estimated; score (T, J) in [0, 1]; n_views (T, J)
     views that contributed; reproj_px (T, J) their mean reprojection error (undistorted pixels,
     NaN if none); how (T, J) int8 ``gymtrack.poses.HOW_*``; counts: what the lifting did
-    (``views_dropped``, ``views_swapped``, ``frames_relabelled``, ``joint_views_dropped``,
+    (``views_dropped``, ``views_swapped``, ``views_legs_swapped``, ``frames_fallback`` (no two
+    views agreed: all kept), ``joints_fallback``, ``frames_relabelled``, ``joint_views_dropped``,
     ``joints_plane``, ``joints_fused``, ``joints_bone_pulled``, ``joints_smoothed_outliers``,
     ``joints_unobservable``: weak joints left without a position).
     """
@@ -305,16 +312,17 @@ def _robust(rig, P, u, v, ok, sc, skeleton, centre, normal, opt) -> Lifted:
     box = _box_size(u, v, ok)
     X_all, w_all, sigma = _all_views(P, u, v, ok, sc, box, opt)
     gate = _gate(box, sigma, opt)
-    cons = view_consensus(P, u, v, ok, gate, flip, opt.flip_ratio, opt.inlier_error, opt.min_common)
+    legs = leg_joints(skeleton)
+    cons = view_consensus(P, u, v, ok, gate, flip, opt.flip_ratio, opt.inlier_error, opt.min_common, legs)
     present = ok.any(axis=1)
     # no two views agreed (e.g. two views of different bodies): keep them all, flagged, rather
     # than give nothing -- robust never estimates fewer joints than dlt because consensus failed
     fallback = ((cons.keep & present).sum(axis=0) < 2) & (present.sum(axis=0) >= 2)
     keep = np.where(fallback, present, cons.keep)
-    swap = np.where(fallback, False, cons.swap)
-    counts = {"views_dropped": int((present & ~keep).sum()), "views_swapped": int(swap.sum()),
-              "frames_fallback": int(fallback.sum())}
-    sw = swap[:, None, :]
+    sw = np.where(fallback[None, None, :], False, cons.reading(legs))  # (C, J, T)
+    swap = sw.any(axis=1)
+    counts = {"views_dropped": int((present & ~keep).sum()), "views_swapped": int((sw[:, ~legs].any(axis=1) & swap).sum()),
+              "views_legs_swapped": int((~sw[:, ~legs].any(axis=1) & swap).sum()), "frames_fallback": int(fallback.sum())}
     u, v, ok, sc = (np.where(sw, a[:, flip], a) for a in (u, v, ok, sc))
     use = ok & keep[:, None, :]
     w = np.where(use, sc / box[:, None, :], 0.0).reshape(C, -1)
@@ -350,6 +358,12 @@ def _robust(rig, P, u, v, ok, sc, skeleton, centre, normal, opt) -> Lifted:
     X3, outliers = smooth_track(X3, mean_sc * how_w, opt.smooth_half_window, opt.smooth_outlier_m)
     counts["joints_smoothed_outliers"] = int(outliers.sum())
     return _finish(P, X3, u, v, use, sc, how, gate, opt, counts, np.where(fallback, opt.fallback_score_factor, 1.0))
+
+
+def leg_joints(skeleton: Skeleton) -> np.ndarray:
+    """(J,) bool: the skeleton's leg joints (hips down), by name."""
+    parts = ("hip", "knee", "ankle", "heel", "toe", "foot")
+    return np.array([any(p in name for p in parts) for name in skeleton.joints], bool)
 
 
 def _cascade(rig, X3, u, v, use, sc, box, centre, normal, skeleton, opt):
