@@ -169,6 +169,22 @@ def test_an_outlier_view_is_dropped(rng):
     assert mpjpe(dlt, X, slice(20, 70)) > 3 * mpjpe(rob, X, slice(20, 70))
 
 
+def test_two_views_of_different_bodies_still_give_every_joint_dlt_gives(rng):
+    """No two views agree (each sees another body): robust keeps them all, flagged, low score --
+    it must never estimate fewer joints than dlt only because its consensus failed."""
+    rig = random_rig(rng, 2)
+    X, _ = body_track(40)
+    kp = observe(rig, X, 1.0, rng)
+    other = observe(rig, X + np.array([0.9, 0.5, 0.0]), 1.0, rng)
+    kp[10:20, 1] = other[10:20, 1]  # view 1's crop holds another body for 10 frames
+    dlt = lift_track(rig, kp, COCO17, "dlt")
+    rob = lift_track(rig, kp, COCO17, options=NO_SMOOTH)
+    assert rob.counts["frames_fallback"] == 10 and rob.counts["views_dropped"] == 0
+    np.testing.assert_array_equal(np.isfinite(rob.xyz), np.isfinite(dlt.xyz))
+    assert np.all(rob.score[10:20] <= 0.3 * 0.9 + 1e-9)  # flagged by its score
+    assert rob.score[:10].min() > 0.3 and rob.score[20:].min() > 0.3
+
+
 def test_one_wrong_joint_in_one_view_is_dropped(rng):
     rig = random_rig(rng, 4)
     X, _ = body_track(40)
