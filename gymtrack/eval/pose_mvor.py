@@ -99,7 +99,7 @@ def run_mvor_pose(folder: str | Path | None = None, detector: str = "openpose", 
         log(f"MVOR: lifting {int(mv.has3d.sum())} persons from {detector} keypoints (dlt, robust)")
     r = lift_mvor(mv, detector, frames)
     common = np.isfinite(r["dlt"]).all(-1) & np.isfinite(r["robust"]).all(-1)
-    return {"available": True, "note": "", "detector": detector, "persons": int(len(r["gt"])),
+    return {"available": True, "note": "", "detector": detector, "persons": int(len(r["gt"])), "noise_frac": r["noise_frac"],
             "persons_2_views": int((r["views"] >= 2).sum()),
             "dlt": mvor_errors(r["dlt"], r["gt"], common), "robust": mvor_errors(r["robust"], r["gt"], common),
             "readme_baseline": README_BASELINE}
@@ -129,7 +129,8 @@ def mvor_markdown(d: dict) -> str:
         f"MVOR (Srivastav et al., MICCAI-LABELS 2018, arXiv:1808.08180; CC BY-NC-SA 4.0): {d['persons']} persons with 3D "
         f"ground truth ({d['persons_2_views']} with a detection of {d['detector']} in at least 2 views), 10 upper-body joints. "
         "Detections linked to the nearest annotated person without a distance limit (the README's protocol); each "
-        "person lifted on its own, no plane anchoring. MPJPE over the joints each method estimated; the last column "
+        "person lifted on its own, no plane anchoring; robust's gate scales with the 2D noise level measured once over "
+        f"every person's own residuals (no ground truth): {100 * d.get('noise_frac', float('nan')):.1f}% of the box. MPJPE over the joints each method estimated; the last column "
         f"over the {d['robust'].get('joints_common', 0)} joints both estimated.", "",
         markdown_table(["lifting", "MPJPE (mm)", "median (mm)", "joints estimated", "> 50 cm", "MPJPE, common joints (mm)"], rows),
     ])
