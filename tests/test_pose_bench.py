@@ -5,7 +5,8 @@ from __future__ import annotations
 import pytest
 
 from gymtrack.eval.benchmark import BenchmarkRun, read_suite, run_routine, write_benchmark
-from gymtrack.eval.pose_bench import LIFTS, PARTS, pooled_pose, pose_claims, pose_markdown, pose_tables
+from gymtrack.eval.config import BenchmarkConfig
+from gymtrack.eval.pose_bench import COMPARISONS, LIFTS, PARTS, pooled_common, pooled_pose, pose_claims, pose_markdown, pose_tables
 from gymtrack.eval.pose_metrics import PoseError
 
 
@@ -48,8 +49,21 @@ def test_pooling_tables_and_claims(rows):
     assert {x["method"] for x in t["fig7"]} == {"cascade", "triangulation", "oracle"}
     c = {x.name: x for x in pose_claims(rows)}
     k = "pose n_cam=2: MPJPE cascade <= 0.7 x triangulation"
-    want = p[(a, 2, "cascade", "robust")].mpjpe / p[(a, 2, "triangulation", "robust")].mpjpe
+    # the claims compare on common frames and joints: each output's MPJPE over the pairs both estimated
+    pc = pooled_common(rows)
+    common = pc[(a, 2, "cascade_triangulation")]
+    assert common.n <= min(p[(a, 2, "cascade", "robust")].mpjpe_n, p[(a, 2, "triangulation", "robust")].mpjpe_n)
+    assert common.frames <= min(p[(a, 2, m, "robust")].pose_frames for m in ("cascade", "triangulation"))
+    want = common.a / common.b
     assert c[k].value == pytest.approx(want) and c[k].status == ("PASS" if want <= 0.7 else "FAIL")
+    assert "own MPJPE" in c[k].detail and "PCK@150 all frames" in c[k].detail
+    # the cascade's row carries every comparison; same keypoints for robust and dlt: same frames
+    r2 = next(x for x in rows if x["method"] == "cascade" and x["n_cam"] == 2)
+    assert all(f"posecmp_{name}_n" in r2 for name in COMPARISONS)
+    assert not any(k_.startswith("_") for x in rows for k_ in x)  # the per-joint scratch is gone
+    # the limits come from the config
+    strict = {x.name: x for x in pose_claims(rows, BenchmarkConfig(pose_cascade_over_triangulation_2=1e-3))}
+    assert strict["pose n_cam=2: MPJPE cascade <= 0.001 x triangulation"].status == "FAIL"
     assert c["pose n_cam=2: MPJPE cascade <= 1.3 x oracle"].status in ("PASS", "FAIL")
     assert "pose n_cam=3: MPJPE cascade <= 1.3 x oracle" not in c  # no n_cam = 3 routine here
     assert c["pose n_cam=4: MPJPE robust <= dlt (no worse)"].status in ("PASS", "FAIL")

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from gymtrack.eval.pose_metrics import PoseError, joint_map, pose_error, procrustes_align, target_pose_error
+from gymtrack.eval.pose_metrics import (CommonError, PoseError, common_error, joint_errors, joint_map, pose_error,
+                                        procrustes_align, target_pose_error)
 
 
 def _square():
@@ -87,6 +88,27 @@ def test_target_pose_error_maps_joints_by_name_and_restricts_to_performing_frame
     assert e.mpjpe_n == 6 and e.mpjpe == pytest.approx((0 + 200 + 100) / 3)
     assert e.pck_joints == 6 and e.pck_hits == 4          # left_knee not in the pose skeleton: not evaluated
     assert joint_map(pose_joints, gt_joints)[1].tolist() == [0, 1, 2]
+    # PCK over every performing frame: frame 13 (no pose) counts its 3 evaluable joints as misses
+    assert e.gt_joints_all == 9 and e.pck_all == pytest.approx(4 / 9)
+    # per-frame, per-joint errors on the performing frames 11, 12, 13 (GT order), NaN where missing
+    err = joint_errors(pose_frames, pose, pose_joints, gt_frames, gt, gt_joints, perf_frames=[11, 12, 13])
+    want = np.array([[100, 200, 0, np.nan]] * 2 + [[np.nan] * 4])
+    np.testing.assert_allclose(err, want, atol=1e-9)
+
+
+def test_common_frame_mpjpe_by_hand():
+    # a: a pose on frames 0 and 1; b: only on frame 1, and without joint 1 there
+    a = np.array([[10.0, 20.0], [30.0, 40.0]])
+    b = np.array([[np.nan, np.nan], [50.0, np.nan]])
+    c = common_error(a, b)
+    assert (c.n, c.frames) == (1, 1)  # only (frame 1, joint 0) is estimated by both
+    assert c.a == pytest.approx(30.0) and c.b == pytest.approx(50.0)
+    # a's own MPJPE (25 mm) averages over an easier frame b never had: not like for like
+    assert np.nanmean(a) == pytest.approx(25.0)
+    pooled = c + common_error(np.array([[10.0]]), np.array([[20.0]]))
+    assert isinstance(pooled, CommonError) and pooled.a == pytest.approx(20.0) and pooled.b == pytest.approx(35.0)
+    with pytest.raises(ValueError):
+        common_error(a, b[:1])
 
 
 def test_target_pose_error_rejects_duplicate_frames():

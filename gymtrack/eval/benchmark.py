@@ -144,7 +144,7 @@ def run_routine(spec: RoutineSpec, methods: Sequence[str], keep_trajectories: bo
     size = np.array([c.size for c in r.rig], dtype=np.float64)
     gt = load_ground_truth(spec.path, r.rig.names, image_size=size)
     rows, traj = [], {}
-    from .pose_bench import PoseGroundTruth, pose_columns
+    from .pose_bench import PoseGroundTruth, add_common_columns, pose_columns
 
     base = {"routine": spec.name, "apparatus": spec.apparatus, "n_cam": spec.n_cam, "seed": spec.seed}
     try:  # the pose part must not cost the tracking rows
@@ -176,6 +176,7 @@ def run_routine(spec: RoutineSpec, methods: Sequence[str], keep_trajectories: bo
             detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
             row = {**base, "method": method, "frames": 0, "seconds": 0.0, "error": detail}
         rows.append(row)
+    add_common_columns(rows)  # the pose claims' common-frame columns: needs every method's row
     rows.sort(key=lambda row: list(methods).index(row["method"]))
     return {"rows": rows, "trajectories": traj if keep_trajectories else None, "spec": spec.__dict__}
 

@@ -3,7 +3,9 @@
 Paper: the targets checked against Tables 3 and 5 (Section IV) -- the cascade's FR and AED
 relative to triangulation alone at two cameras, no loss with four, closeness to the
 ground-truth association, and speed -- live here rather than in the library's code, with the
-default place of the WILDTRACK data.
+default place of the WILDTRACK data; so do the pose targets of the paper's Fig. 7 (issue #9),
+checked on the MPJPE over the frames and joints both compared outputs estimated
+(:mod:`gymtrack.eval.pose_bench`).
 """
 
 from __future__ import annotations
@@ -30,6 +32,16 @@ class BenchmarkConfig:
     min_fps: float = 1000.0
     #: the cascade's frames per second >= this x triangulation's
     fps_cascade_over_triangulation: float = 0.9
+    #: pose, n_cam = 2, averaged over apparatus, common frames: cascade MPJPE <= this x triangulation's (robust lifting)
+    pose_cascade_over_triangulation_2: float = 0.7
+    #: pose, n_cam = 2, common frames: robust MPJPE <= this x dlt's (the cascade's boxes, same keypoints)
+    pose_robust_over_dlt_2: float = 0.85
+    #: pose, n_cam = 4, common frames: robust MPJPE <= this x dlt's (no worse with views to spare)
+    pose_robust_over_dlt_4: float = 1.0
+    #: pose, every n_cam, common frames: cascade MPJPE <= this x the oracle's
+    pose_cascade_over_oracle: float = 1.3
+    #: lifting one target seen by 4 views, frames per second, at least (benchmarks/bench_pose.py)
+    pose_min_lift_fps: float = 2000.0
     #: the WILDTRACK dataset, relative to the current directory (the project root)
     wildtrack: Path = Path("../shared/data/wildtrack")
 

@@ -14,7 +14,15 @@ Rows: :func:`pose_columns` adds the additive parts of the metrics to a method's 
 ``pose_<lift>_<part>`` columns (parts: :data:`PARTS`), so that pooling routines is exact, like
 the tracking metrics of :mod:`gymtrack.eval.aggregate`. :func:`pose_tables` pools them per
 (apparatus, n_cam, method, lift) and averages over apparatus; :func:`pose_claims` checks the
-issue's targets; :func:`pose_markdown` writes the report section. The pose model's seed is the
+issue's targets; :func:`pose_markdown` writes the report section.
+
+The claims compare two outputs (:data:`COMPARISONS`) on their **common frames**: the MPJPE of
+each over the (frame, joint) pairs both estimated (``posecmp_<comparison>_<part>`` columns on
+the cascade's row, :func:`add_common_columns`). Each output's own MPJPE averages over its own
+frames -- a method that finds a pose on fewer frames averages over easier ones -- so it is
+reported beside, with the pose share and PCK@150 over all performing frames (a frame or joint
+without an estimate is a miss), but not used for the ratios. The limits are
+:class:`gymtrack.eval.config.BenchmarkConfig`'s. The pose model's seed is the
 routine's, the same for every method, so the methods differ by their boxes only.
 """
 
@@ -28,11 +36,13 @@ from typing import Sequence
 import numpy as np
 
 from ..apparatus import ABBREVIATIONS, APPARATUS_NAMES
-from .pose_metrics import PoseError, target_pose_error
+from .pose_metrics import CommonError, PoseError, common_error, joint_errors, target_pose_error
 from .aggregate import Claim
+from .config import DEFAULT_CONFIG, BenchmarkConfig
 from .render import markdown_table
 
-__all__ = ["POSE_METHODS", "LIFTS", "PARTS", "PoseGroundTruth", "pose_columns", "pose_tables", "pose_claims", "pose_markdown"]
+__all__ = ["POSE_METHODS", "LIFTS", "PARTS", "COMPARISONS", "PoseGroundTruth", "pose_columns", "add_common_columns",
+           "pooled_common", "pose_tables", "pose_claims", "pose_markdown"]
 
 POSE_METHODS: tuple[str, ...] = ("cascade", "triangulation", "mvpt", "oracle")
 #: lifting variants: column name -> (lift method, plane anchoring)
@@ -41,6 +51,15 @@ LIFT_LABELS = {"robust": "robust", "dlt": "dlt (Eq. 3)", "noplane": "robust, no 
 ABLATION_METHOD = "cascade"
 PARTS: tuple[str, ...] = tuple(f.name for f in fields(PoseError))
 N_CAMS = (2, 3, 4)
+#: compared outputs: name -> ((method, lift) a, (method, lift) b); columns on method a's row
+COMPARISONS: dict[str, tuple[tuple[str, str], tuple[str, str]]] = {
+    "cascade_triangulation": (("cascade", "robust"), ("triangulation", "robust")),
+    "cascade_oracle": (("cascade", "robust"), ("oracle", "robust")),
+    "robust_dlt": (("cascade", "robust"), ("cascade", "dlt")),
+    "robust_noplane": (("cascade", "robust"), ("cascade", "noplane")),
+}
+COMMON_PARTS: tuple[str, ...] = tuple(f.name for f in fields(CommonError))
+_ERR = "_pose_joint_errors"  # per-row scratch: {lift: (F, G) mm}, removed by add_common_columns
 
 
 @dataclass(frozen=True, eq=False)
@@ -110,10 +129,40 @@ def _pose_columns(method, result, rig, scene, pgt, seed, t0) -> dict:
         p = res.poses3d
         e = target_pose_error(p.frame, p.xyz, p.skeleton.joints, pgt.frames, gt_xyz, COCO17.joints, pgt.perf_frames)
         out |= {f"pose_{name}_{k}": v for k, v in e.as_dict().items()}
+        out.setdefault(_ERR, {})[name] = joint_errors(p.frame, p.xyz, p.skeleton.joints, pgt.frames, gt_xyz,
+                                                      COCO17.joints, pgt.perf_frames)
         if name == "robust":
             out["pose_poses_2d"] = len(poses)
             out["pose_unassigned"] = res.counts.get("unassigned", 0) + res.counts.get("rejected", 0)
     out["pose_seconds"] = time.perf_counter() - t0
+    return out
+
+
+def add_common_columns(rows: list[dict]) -> list[dict]:
+    """Add the ``posecmp_<comparison>_<part>`` columns to the rows of one routine (one row per
+    method, as :func:`pose_columns` left them) and drop the per-joint scratch; in place."""
+    err = {r.get("method"): r.pop(_ERR, None) or {} for r in rows}
+    for r in rows:
+        for name, ((ma, la), (mb, lb)) in COMPARISONS.items():
+            if r.get("method") != ma or la not in err[ma] or lb not in err.get(mb, {}):
+                continue
+            c = common_error(err[ma][la], err[mb][lb])
+            r |= {f"posecmp_{name}_{k}": v for k, v in c.as_dict().items()}
+    return rows
+
+
+def pooled_common(rows: Sequence[dict]) -> dict[tuple, CommonError]:
+    """``{(apparatus, n_cam, comparison): pooled CommonError}`` over routines."""
+    out: dict[tuple, CommonError] = {}
+    for r in rows:
+        if r.get("error"):
+            continue
+        for name in COMPARISONS:
+            if r.get(f"posecmp_{name}_n") in ("", None):
+                continue
+            c = CommonError(**{k: (int if k in ("n", "frames") else float)(_num(r[f"posecmp_{name}_{k}"])) for k in COMMON_PARTS})
+            key = (r["apparatus"], int(r["n_cam"]), name)
+            out[key] = out[key] + c if key in out else c
     return out
 
 
@@ -151,12 +200,12 @@ def pose_tables(rows: Sequence[dict]) -> dict[str, list[dict]]:
     apparatus-averaged MPJPE / PA-MPJPE / PCK / pose share}``."""
     p = pooled_pose(rows)
     fig7 = [{"apparatus": a, "n_cam": n, "method": m, "lift": lift, "mpjpe_mm": e.mpjpe, "pa_mpjpe_mm": e.pa_mpjpe,
-             "pck150": e.pck, "pose_share": e.pose_share} for (a, n, m, lift), e in sorted(
+             "pck150": e.pck, "pck150_all": e.pck_all, "pose_share": e.pose_share} for (a, n, m, lift), e in sorted(
                  p.items(), key=lambda kv: (_order(kv[0][0], APPARATUS_NAMES), kv[0][1], _order(kv[0][2], POSE_METHODS),
                                             _order(kv[0][3], tuple(LIFTS))))]
     acc: dict[tuple, dict[str, list]] = {}
     for r in fig7:
-        d = acc.setdefault((r["method"], r["lift"], r["n_cam"]), {k: [] for k in ("mpjpe_mm", "pa_mpjpe_mm", "pck150", "pose_share")})
+        d = acc.setdefault((r["method"], r["lift"], r["n_cam"]), {k: [] for k in ("mpjpe_mm", "pa_mpjpe_mm", "pck150", "pck150_all", "pose_share")})
         for k in d:
             d[k].append(r[k])
     averaged = [{"method": m, "lift": lift, "n_cam": n, **{k: _mean(v) for k, v in d.items()}}
@@ -173,12 +222,13 @@ def _claim(name: str, value: float, limit: float, ok: bool | None, detail: str) 
     return Claim(name, float(value), float(limit), status, detail)
 
 
-def pose_claims(rows: Sequence[dict]) -> list[Claim]:
-    """The issue's pose targets, PASS / FAIL / n/a.
+def pose_claims(rows: Sequence[dict], config: BenchmarkConfig = DEFAULT_CONFIG) -> list[Claim]:
+    """The issue's pose targets, PASS / FAIL / n/a, limits from ``config``.
 
-    Each compares the MPJPE of two (method, lift) pairs averaged over the apparatus where *both*
-    have a pose (an apparatus where one method never found the target would otherwise drop out of
-    one mean only):
+    Each compares two outputs (:data:`COMPARISONS`) on their common frames: per apparatus, the
+    MPJPE of each over the (frame, joint) pairs both estimated; the ratio of their means over the
+    apparatus where both have a pose. The detail gives each output's own MPJPE, pose share and
+    PCK@150 over all performing frames beside it.
 
     1. n_cam = 2: cascade <= 0.7 x triangulation (robust lifting on each method's boxes);
     2. n_cam = 2: robust <= 0.85 x dlt (cascade's boxes, same keypoints);
@@ -186,26 +236,38 @@ def pose_claims(rows: Sequence[dict]) -> list[Claim]:
     4. every n_cam: cascade <= 1.3 x oracle.
     """
     p = pooled_pose(rows)
+    pc = pooled_common(rows)
     out = []
 
-    def ratio(name, num, den, n, limit):
-        apps = [a for a in APPARATUS_NAMES + tuple(sorted({k[0] for k in p} - set(APPARATUS_NAMES)))
-                if (a, n, *num) in p and (a, n, *den) in p and np.isfinite(p[(a, n, *num)].mpjpe) and np.isfinite(p[(a, n, *den)].mpjpe)]
-        if not apps:
-            out.append(_claim(name, float("nan"), limit, None, f"needs {num[0]}/{num[1]} and {den[0]}/{den[1]} at n_cam = {n}"))
-            return
-        x = float(np.mean([p[(a, n, *num)].mpjpe for a in apps]))
-        y = float(np.mean([p[(a, n, *den)].mpjpe for a in apps]))
-        r = x / y if y > 0 else float("nan")
-        out.append(_claim(name, r, limit, r <= limit, f"{num[0]} {num[1]} {x:.0f} mm, {den[0]} {den[1]} {y:.0f} mm "
-                                                      f"({len(apps)} apparatus with both)"))
+    def own(key_mean, n, m, lift, attr):
+        return _mean([getattr(p[(a, n, m, lift)], attr) for a in key_mean if (a, n, m, lift) in p])
 
-    ratio("pose n_cam=2: MPJPE cascade <= 0.7 x triangulation", ("cascade", "robust"), ("triangulation", "robust"), 2, 0.7)
-    ratio("pose n_cam=2: MPJPE robust <= 0.85 x dlt", ("cascade", "robust"), ("cascade", "dlt"), 2, 0.85)
-    ratio("pose n_cam=4: MPJPE robust <= dlt (no worse)", ("cascade", "robust"), ("cascade", "dlt"), 4, 1.0)
+    def ratio(name, comparison, n, limit):
+        (ma, la), (mb, lb) = COMPARISONS[comparison]
+        apps = [a for a in sorted({k[0] for k in pc}, key=lambda a: _order(a, APPARATUS_NAMES))
+                if (a, n, comparison) in pc and pc[(a, n, comparison)].n > 0]
+        if not apps:
+            out.append(_claim(name, float("nan"), limit, None, f"needs {ma}/{la} and {mb}/{lb} at n_cam = {n}"))
+            return
+        x = _mean([pc[(a, n, comparison)].a for a in apps])
+        y = _mean([pc[(a, n, comparison)].b for a in apps])
+        r = x / y if y > 0 else float("nan")
+        detail = (f"common frames: {ma} {la} {x:.0f} mm vs {mb} {lb} {y:.0f} mm ({len(apps)} apparatus); own MPJPE "
+                  f"{own(apps, n, ma, la, 'mpjpe'):.0f} vs {own(apps, n, mb, lb, 'mpjpe'):.0f} mm, pose share "
+                  f"{100 * own(apps, n, ma, la, 'pose_share'):.0f}% vs {100 * own(apps, n, mb, lb, 'pose_share'):.0f}%, "
+                  f"PCK@150 all frames {100 * own(apps, n, ma, la, 'pck_all'):.0f}% vs {100 * own(apps, n, mb, lb, 'pck_all'):.0f}%")
+        out.append(_claim(name, r, limit, r <= limit, detail))
+
+    c = config
+    ratio(f"pose n_cam=2: MPJPE cascade <= {c.pose_cascade_over_triangulation_2:g} x triangulation",
+          "cascade_triangulation", 2, c.pose_cascade_over_triangulation_2)
+    ratio(f"pose n_cam=2: MPJPE robust <= {c.pose_robust_over_dlt_2:g} x dlt", "robust_dlt", 2, c.pose_robust_over_dlt_2)
+    ratio("pose n_cam=4: MPJPE robust <= dlt (no worse)" if c.pose_robust_over_dlt_4 == 1 else
+          f"pose n_cam=4: MPJPE robust <= {c.pose_robust_over_dlt_4:g} x dlt", "robust_dlt", 4, c.pose_robust_over_dlt_4)
     ns = sorted({k[1] for k in p}) or list(N_CAMS)
     for n in ns:
-        ratio(f"pose n_cam={n}: MPJPE cascade <= 1.3 x oracle", ("cascade", "robust"), ("oracle", "robust"), n, 1.3)
+        ratio(f"pose n_cam={n}: MPJPE cascade <= {c.pose_cascade_over_oracle:g} x oracle", "cascade_oracle", n,
+              c.pose_cascade_over_oracle)
     return out
 
 
@@ -215,7 +277,7 @@ def _f(v: float, kind: str = "mm") -> str:
     return f"{v:.0f}" if kind == "mm" else (f"{100 * v:.1f}%" if kind == "pct" else f"{v:.2f}")
 
 
-def pose_markdown(rows: Sequence[dict], mvor: dict | None = None) -> str:
+def pose_markdown(rows: Sequence[dict], mvor: dict | None = None, config: BenchmarkConfig = DEFAULT_CONFIG) -> str:
     """The report section: Fig. 7 table, apparatus averages, ablation, ratios, claims, MVOR."""
     t = pose_tables(rows)
     if not t["fig7"]:
@@ -232,36 +294,52 @@ def pose_markdown(rows: Sequence[dict], mvor: dict | None = None) -> str:
         "method, so they differ by their boxes only); the pose stage lifts the target with `robust` lifting; "
         "errors against gt/keypoints_3d.csv (COCO-17) on the target's performing frames. MPJPE and PA-MPJPE "
         "(Procrustes with scale, per frame) in mm pooled over joints; PCK at 150 mm over the ground-truth joints "
-        "of frames with a pose (a joint not estimated is a miss); pose share = performing frames with a pose. "
-        "Averages over apparatus are plain means of the per-apparatus values.", "",
+        "of frames with a pose (a joint not estimated is a miss), and over every performing frame (PCK all: a frame "
+        "without a pose is all misses); pose share = performing frames with a pose. "
+        "Averages over apparatus are plain means of the per-apparatus values. **The ratios and the targets use the "
+        "common-frame MPJPE**: each of the two compared outputs over the frames and joints both estimated; each "
+        "output's own MPJPE averages over its own frames (fewer frames can be easier ones) and is shown beside.", "",
         "**MPJPE (mm) per apparatus and n_cam, robust lifting**", "",
     ]
     header = ["method"] + [f"{ABBREVIATIONS.get(a, a)} {n}" for a in apps for n in ns]
     parts.append(markdown_table(header, [[m] + [_f(cell[(a, n, m, "robust")]["mpjpe_mm"]) if (a, n, m, "robust") in cell else "-"
                                                 for a in apps for n in ns] for m in methods]))
     av = {(r["method"], r["lift"], r["n_cam"]): r for r in t["averaged"]}
-    parts += ["", "**Averaged over apparatus, robust lifting: MPJPE | PA-MPJPE (mm) | PCK@150 | pose share**", ""]
+
+    def summary(k):
+        r = av[k]
+        return " \\| ".join((_f(r["mpjpe_mm"]), _f(r["pa_mpjpe_mm"]), _f(r["pck150"], "pct"), _f(r["pck150_all"], "pct"),
+                              _f(r["pose_share"], "pct")))
+
+    parts += ["", "**Averaged over apparatus, robust lifting (own frames): MPJPE | PA-MPJPE (mm) | PCK@150 | "
+              "PCK@150 all frames | pose share**", ""]
     parts.append(markdown_table(["method"] + [f"n_cam={n}" for n in ns], [
-        [m] + [" \\| ".join((_f(av[(m, "robust", n)]["mpjpe_mm"]), _f(av[(m, "robust", n)]["pa_mpjpe_mm"]),
-                             _f(av[(m, "robust", n)]["pck150"], "pct"), _f(av[(m, "robust", n)]["pose_share"], "pct")))
-               if (m, "robust", n) in av else "-" for n in ns] for m in methods]))
-    parts += ["", f"**Lifting ablation on the {ABLATION_METHOD}'s boxes (same 2D keypoints): MPJPE | PA-MPJPE (mm), "
-              "averaged over apparatus**", ""]
+        [m] + [summary((m, "robust", n)) if (m, "robust", n) in av else "-" for n in ns] for m in methods]))
+    parts += ["", f"**Lifting ablation on the {ABLATION_METHOD}'s boxes (same 2D keypoints), own frames: MPJPE | PA-MPJPE (mm) "
+              "| PCK@150 | PCK@150 all frames | pose share, averaged over apparatus**", ""]
     parts.append(markdown_table(["lifting"] + [f"n_cam={n}" for n in ns], [
-        [LIFT_LABELS[lift]] + [f"{_f(av[k]['mpjpe_mm'])} \\| {_f(av[k]['pa_mpjpe_mm'])}" if (k := (ABLATION_METHOD, lift, n)) in av else "-"
-                               for n in ns] for lift in LIFTS]))
-    parts += ["", "**Ratios of MPJPE (averaged over apparatus)**", ""]
+        [LIFT_LABELS[lift]] + [summary(k) if (k := (ABLATION_METHOD, lift, n)) in av else "-" for n in ns] for lift in LIFTS]))
+    parts += ["", "**Ratios of MPJPE on common frames (a | b mm over the frames and joints both estimated, averaged over "
+              "apparatus; ratio a / b, in brackets the ratio of the own-frame MPJPEs)**", ""]
+    pc = pooled_common(rows)
 
-    def rt(a_, b_):
-        x, y = av.get(a_), av.get(b_)
-        return _f(x["mpjpe_mm"] / y["mpjpe_mm"], "ratio") if x and y and y["mpjpe_mm"] else "-"
+    def rt(name, n):
+        apps = [a for a in apps_all if (a, n, name) in pc and pc[(a, n, name)].n > 0]
+        if not apps:
+            return "-"
+        x, y = _mean([pc[(a, n, name)].a for a in apps]), _mean([pc[(a, n, name)].b for a in apps])
+        (ma, la), (mb, lb) = COMPARISONS[name]
+        xo, yo = av.get((ma, la, n)), av.get((mb, lb, n))
+        own = f" ({_f(xo['mpjpe_mm'] / yo['mpjpe_mm'], 'ratio')})" if xo and yo and yo["mpjpe_mm"] else ""
+        return f"{_f(x)} \\| {_f(y)}: {_f(x / y if y else float('nan'), 'ratio')}{own}"
 
-    parts.append(markdown_table(["n_cam", "cascade / triangulation", "cascade / oracle", "robust / dlt", "robust / no plane"], [
-        [n, rt(("cascade", "robust", n), ("triangulation", "robust", n)), rt(("cascade", "robust", n), ("oracle", "robust", n)),
-         rt(("cascade", "robust", n), ("cascade", "dlt", n)), rt(("cascade", "robust", n), ("cascade", "noplane", n))] for n in ns]))
+    apps_all = [a for a in APPARATUS_NAMES] + sorted({k[0] for k in pc} - set(APPARATUS_NAMES))
+    names = {"cascade_triangulation": "cascade / triangulation", "cascade_oracle": "cascade / oracle",
+             "robust_dlt": "robust / dlt", "robust_noplane": "robust / no plane"}
+    parts.append(markdown_table(["n_cam"] + [names[k] for k in COMPARISONS], [[n] + [rt(k, n) for k in COMPARISONS] for n in ns]))
     parts += ["", "**Pose targets of the issue**", ""]
     parts.append(markdown_table(["target", "value", "limit", "result", "detail"],
-                                [[c.name, _f(c.value, "ratio"), _f(c.limit, "ratio"), f"**{c.status}**", c.detail] for c in pose_claims(rows)]))
+                                [[c.name, _f(c.value, "ratio"), _f(c.limit, "ratio"), f"**{c.status}**", c.detail] for c in pose_claims(rows, config)]))
     if mvor:
         parts += ["", _mvor_md(mvor)]
     return "\n".join(parts)

@@ -11,9 +11,16 @@ measure that pose against the simulator's ``gt/keypoints_3d.csv`` (COCO-17 joint
   reflection) over the joints both have; frames with fewer than 3 such joints are left out.
 * **PCK@150 mm**: share of ground-truth joints (in the evaluated frames, i.e. the performing
   frames where the output has a pose) whose estimate lies within 150 mm; a joint the output
-  did not estimate counts as a miss.
+  did not estimate counts as a miss. **PCK@150 over all frames** (``pck_all``): the same over
+  the ground-truth joints of *every* performing frame, so a frame without a pose is all misses:
+  the one figure that a method cannot improve by declining hard frames.
 * **pose share**: share of the target's performing frames where the output has a pose (at least
   one joint estimated).
+
+* **Common-frame MPJPE** (:func:`common_error`): two outputs' MPJPE over the (frame, joint)
+  pairs *both* estimated. Each output's own MPJPE averages over its own frames, and one that
+  gives a pose on fewer frames averages over easier ones; comparing two methods' own MPJPE is
+  then not like for like. :func:`joint_errors` gives the per-frame, per-joint errors it needs.
 
 Joints are compared by name: the estimate's skeleton is mapped onto the ground truth's joint
 names, and joints the estimate's skeleton lacks are not evaluated (PCK included).
@@ -24,12 +31,13 @@ routines exactly; its properties give the means.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Sequence
 
 import numpy as np
 
-__all__ = ["PCK_THRESHOLD_M", "PoseError", "procrustes_align", "pose_error", "joint_map", "target_pose_error"]
+__all__ = ["PCK_THRESHOLD_M", "PoseError", "CommonError", "procrustes_align", "pose_error", "joint_map",
+           "target_pose_error", "joint_errors", "common_error"]
 
 PCK_THRESHOLD_M = 0.150
 
@@ -41,7 +49,8 @@ class PoseError:
     mpjpe_sum, mpjpe_n: summed joint error and (frame, joint) pairs;
     pa_sum, pa_n: summed Procrustes-aligned joint error and pairs (frames with >= 3 joints);
     pck_hits, pck_joints: GT joints within the threshold, and GT joints evaluated;
-    pose_frames, frames: performing frames with an output pose, and performing frames.
+    pose_frames, frames: performing frames with an output pose, and performing frames;
+    gt_joints_all: GT joints over every performing frame (``pck_all``'s denominator).
     """
 
     mpjpe_sum: float = 0.0
@@ -52,6 +61,7 @@ class PoseError:
     pck_joints: int = 0
     pose_frames: int = 0
     frames: int = 0
+    gt_joints_all: int = 0
 
     @property
     def mpjpe(self) -> float:
@@ -64,6 +74,11 @@ class PoseError:
     @property
     def pck(self) -> float:
         return self.pck_hits / self.pck_joints if self.pck_joints else float("nan")
+
+    @property
+    def pck_all(self) -> float:
+        """PCK over every performing frame's GT joints: a frame without a pose counts as misses."""
+        return self.pck_hits / self.gt_joints_all if self.gt_joints_all else float("nan")
 
     @property
     def pose_share(self) -> float:
@@ -166,7 +181,71 @@ def target_pose_error(pose_frame: np.ndarray, pose_xyz: np.ndarray, pose_joints:
     pred = np.asarray(pose_xyz, np.float64)[rows][:, pi]
     has = np.all(np.isfinite(pred), axis=-1).any(axis=1)
     rows, pred = rows[has], pred[has]
-    g = np.searchsorted(gt_frames, pose_frame[rows]) if np.all(np.diff(gt_frames) > 0) else \
-        np.array([np.flatnonzero(gt_frames == f)[0] for f in pose_frame[rows]], np.int64)
-    gt = np.asarray(gt_xyz, np.float64)[g][:, gi]
-    return pose_error(pred, gt, frames=perf.size, threshold=threshold)
+    gt = np.asarray(gt_xyz, np.float64)[_gt_rows(gt_frames, pose_frame[rows])][:, gi]
+    e = pose_error(pred, gt, frames=perf.size, threshold=threshold)
+    all_gt = np.asarray(gt_xyz, np.float64)[_gt_rows(gt_frames, perf)][:, gi]
+    return replace(e, gt_joints_all=int(np.all(np.isfinite(all_gt), axis=-1).sum()))
+
+
+def _gt_rows(gt_frames: np.ndarray, frames: np.ndarray) -> np.ndarray:
+    if np.all(np.diff(gt_frames) > 0):
+        return np.searchsorted(gt_frames, frames)
+    return np.array([np.flatnonzero(gt_frames == f)[0] for f in frames], np.int64)
+
+
+def joint_errors(pose_frame: np.ndarray, pose_xyz: np.ndarray, pose_joints: Sequence[str], gt_frames: np.ndarray,
+                 gt_xyz: np.ndarray, gt_joints: Sequence[str], perf_frames: np.ndarray) -> np.ndarray:
+    """(F, G) millimetres: the error of each ground-truth joint (G, ``gt_joints`` order) on each
+    performing frame (F, sorted, those the ground truth has); NaN where the output did not
+    estimate it, the ground truth lacks it, or the output has no row for that frame.
+    Arguments as :func:`target_pose_error`."""
+    pose_frame = np.asarray(pose_frame, np.int64)
+    gt_frames = np.asarray(gt_frames, np.int64)
+    perf = np.intersect1d(np.asarray(perf_frames, np.int64), gt_frames)
+    pi, gi = joint_map(pose_joints, gt_joints)
+    G = len(gt_joints)
+    pred = np.full((perf.size, G, 3), np.nan)
+    o = np.argsort(pose_frame, kind="stable")
+    k = np.clip(np.searchsorted(pose_frame[o], perf), 0, max(len(o) - 1, 0))
+    hit = (pose_frame[o][k] == perf) if len(o) else np.zeros(perf.size, bool)
+    pred[np.ix_(np.flatnonzero(hit), gi)] = np.asarray(pose_xyz, np.float64)[o[k[hit]]][:, pi]
+    gt = np.asarray(gt_xyz, np.float64)[_gt_rows(gt_frames, perf)]
+    return 1000.0 * np.linalg.norm(pred - gt, axis=-1)
+
+
+@dataclass(frozen=True)
+class CommonError:
+    """Additive parts of two outputs' MPJPE over the (frame, joint) pairs both estimated (mm).
+
+    a_sum, b_sum: summed errors of output a and b; n: the common pairs; frames: frames where both
+    have a pose. ``a`` and ``b`` are their MPJPEs, ``ratio`` = a / b (like for like).
+    """
+
+    a_sum: float = 0.0
+    b_sum: float = 0.0
+    n: int = 0
+    frames: int = 0
+
+    @property
+    def a(self) -> float:
+        return self.a_sum / self.n if self.n else float("nan")
+
+    @property
+    def b(self) -> float:
+        return self.b_sum / self.n if self.n else float("nan")
+
+    def __add__(self, other: "CommonError") -> "CommonError":
+        return CommonError(**{k: v + getattr(other, k) for k, v in asdict(self).items()})
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+def common_error(err_a: np.ndarray, err_b: np.ndarray) -> CommonError:
+    """The common-frame MPJPE parts of two :func:`joint_errors` arrays (F, G) of the same frames."""
+    err_a, err_b = np.asarray(err_a, np.float64), np.asarray(err_b, np.float64)
+    if err_a.shape != err_b.shape:
+        raise ValueError(f"the two outputs' errors must be over the same frames and joints, got {err_a.shape} and {err_b.shape}")
+    both = np.isfinite(err_a) & np.isfinite(err_b)
+    frames = np.isfinite(err_a).any(axis=1) & np.isfinite(err_b).any(axis=1)
+    return CommonError(float(err_a[both].sum()), float(err_b[both].sum()), int(both.sum()), int(frames.sum()))

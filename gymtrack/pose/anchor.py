@@ -61,12 +61,13 @@ def lines_of_sight(cams, u: np.ndarray, v: np.ndarray, w: np.ndarray) -> tuple[n
 
 
 def anchor_on_plane(cams, o: np.ndarray, d: np.ndarray, d_main: np.ndarray, w: np.ndarray, centre: np.ndarray,
-                    normal: np.ndarray, sigma_px: np.ndarray, sigma_plane: float, min_cos: float) -> np.ndarray:
+                    normal: np.ndarray, sigma_px: np.ndarray, sigma_plane: float | np.ndarray, min_cos: float) -> np.ndarray:
     """Fuse the lines of sight of weak joints with the plane through the centre.
 
     cams: the rig's cameras; o (C, 3), d (C, 3, M), d_main (3, M) from :func:`lines_of_sight`;
     w (C, M) > 0 where a view counts; centre (3, M) the target's centre at each point's frame;
-    normal (3,) unit; sigma_px (C, M) the pixel noise. Returns X (3, M); NaN where a lone ray is
+    normal (3,) unit; sigma_px (C, M) the pixel noise; sigma_plane: the plane prior's std along
+    the normal, metres, scalar or (M,) (:func:`plane_spread`). Returns X (3, M); NaN where a lone ray is
     within ``min_cos`` of parallel to the plane or the point falls behind a camera.
     """
     f = np.array([c.K[0, 0] for c in cams])
@@ -80,6 +81,23 @@ def anchor_on_plane(cams, o: np.ndarray, d: np.ndarray, d_main: np.ndarray, w: n
     behind = np.any((w > 0) & (np.einsum("cim,cim->cm", X[None] - o[:, :, None], d) <= 0), axis=0)
     X[:, parallel | behind] = np.nan
     return X
+
+
+def plane_spread(X: np.ndarray, strong: np.ndarray, centre: np.ndarray, normal: np.ndarray, floor: float,
+                 min_frames: int) -> np.ndarray:
+    """(J,) each joint's spread (RMS, metres) along the normal about the plane through the centre,
+    measured on the frames where it was strongly triangulated; never below ``floor`` (the
+    configured prior), ``floor`` with fewer than ``min_frames`` such frames.
+
+    X (T, J, 3); strong (T, J) bool; centre (T, 3); normal (3,). The plane prior holds for a body
+    that moves in the apparatus plane (a beam walk, a giant swing); a pommel horse circle sweeps
+    the legs a metre across it, and a fixed prior there pulls joints half a metre off.
+    """
+    off = np.einsum("tjk,k->tj", X - centre[:, None], normal)
+    ok = strong & np.isfinite(off)
+    n = ok.sum(axis=0)
+    rms = np.sqrt(np.where(ok, off * off, 0.0).sum(axis=0) / np.maximum(n, 1))
+    return np.where(n >= min_frames, np.maximum(rms, floor), floor)
 
 
 def bone_lengths(X: np.ndarray, strong: np.ndarray, bones: np.ndarray, min_frames: int) -> np.ndarray:

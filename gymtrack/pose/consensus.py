@@ -8,7 +8,8 @@ view form a hypothesis (``C (C - 1)`` of them: 12 for 4 views, never a search ov
 pair's triangulated skeleton is reprojected into every view in both labellings, and each view
 costs its mean truncated reprojection error (MSAC: errors normalised by a gate scaled to the
 pose's box and capped at 1, a view that does not fit costs 1). The cheapest hypothesis of a
-frame decides which views are kept and which are read swapped.
+frame decides which views are kept and which are read swapped; a judged view may also be read
+with its legs only exchanged (a model swaps the legs alone too).
 
 A labelling is only defined relative to the views: the one most kept views agree with wins; a
 tie (e.g. two views, one swapped) is settled later in 3D against the neighbouring frames
@@ -29,35 +30,51 @@ from .dlt import project, weighted_dlt
 @dataclass(eq=False)
 class Consensus:
     """Per frame and view: ``keep`` (C, T) bool, ``swap`` (C, T) bool (read with left/right
-    exchanged), ``tie`` (T,) bool (as many kept views swapped as not: the labelling is open)."""
+    exchanged), ``swap_legs`` (C, T) bool (the legs read exchanged: with ``swap``, the whole
+    body; without it, the legs only), ``tie`` (T,) bool (as many kept views swapped as not: the
+    labelling is open)."""
 
     keep: np.ndarray
     swap: np.ndarray
     tie: np.ndarray
+    swap_legs: np.ndarray | None = None
+
+    def reading(self, legs: np.ndarray) -> np.ndarray:
+        """(C, J, T) bool: where a view's joint is read from its mirror joint; legs (J,) bool."""
+        sl = self.swap if self.swap_legs is None else self.swap_legs
+        return np.where(np.asarray(legs, bool)[None, :, None], sl[:, None, :], self.swap[:, None, :])
 
 
 def _view_errors(pu, pv, u, v, ok, gate):
     """(C, J, T) reprojection error / gate, capped at 1, and where it is defined (C, J, T), of
     the projections pu, pv (C, J, T)."""
-    r = np.hypot(pu - u, pv - v) / gate[:, None, :]
+    r = np.hypot(pu - u, pv - v) / gate
     m = ok & np.isfinite(r)
     return np.where(m, np.minimum(r, 1.0), 0.0), m
 
 
 def view_consensus(P: np.ndarray, u: np.ndarray, v: np.ndarray, ok: np.ndarray, gate: np.ndarray,
-                   flip: np.ndarray, flip_ratio: float, inlier_error: float, min_common: int) -> Consensus:
+                   flip: np.ndarray, flip_ratio: float, inlier_error: float, min_common: int,
+                   legs: np.ndarray | None = None) -> Consensus:
     """Pick per frame the views that agree and their left/right labelling (see the module doc).
 
     P (C, 3, 4) undistorted projections; u, v (C, J, T) undistorted pixels; ok (C, J, T) found;
-    gate (C, T) pixels; flip (J,) mirror joint of each joint.
+    gate (C, J, T) pixels; flip (J,) mirror joint of each joint. legs (J,) bool or None: the leg
+    joints, whose labels a pose model also swaps on their own (a legs-only swap, Ronchi &
+    Perona's "inversion" of the legs): each judged view is then also read with its legs only
+    exchanged (no extra hypotheses: the pairs still read their second view whole).
     """
     C, J, T = u.shape
     present = ok.sum(axis=1) > 0  # (C, T)
     lateral = flip != np.arange(J)
     us, vs, oks = u[:, flip], v[:, flip], ok[:, flip]
+    if legs is not None:
+        pl = np.where(np.asarray(legs, bool) & lateral, flip, np.arange(J))
+        ul, vl, okl = u[:, pl], v[:, pl], ok[:, pl]
     best = np.full(T, np.inf)
     keep = present.copy()
     swap = np.zeros((C, T), bool)
+    swap_legs = np.zeros((C, T), bool)
     for a in range(C):
         for b in range(a + 1, C):
             for s in (False, True):
@@ -77,6 +94,14 @@ def view_consensus(P: np.ndarray, u: np.ndarray, v: np.ndarray, ok: np.ndarray, 
                 sw = (ms[:, lateral].sum(1) >= 2) & (lat_s < flip_ratio * lat_o)
                 e = np.where(sw, es.sum(1) / np.maximum(ms.sum(1), 1), eo.sum(1) / np.maximum(mo.sum(1), 1))
                 checked = np.where(sw, ms.sum(1), mo.sum(1)) >= min_common
+                lg = np.zeros_like(sw)
+                if legs is not None:
+                    el, ml = _view_errors(pu, pv, ul, vl, okl, gate)
+                    lat_l = (el * ml)[:, lateral].sum(1) / np.maximum(ml[:, lateral].sum(1), 1)
+                    lg = (ml[:, lateral].sum(1) >= 2) & (lat_l < flip_ratio * lat_o) & ~(sw & (lat_s <= lat_l))
+                    sw = sw & ~lg
+                    e = np.where(lg, el.sum(1) / np.maximum(ml.sum(1), 1), e)
+                    checked = np.where(lg, ml.sum(1) >= min_common, checked)
                 inlier = present & (~checked | (e < inlier_error))
                 cost = np.where(present, np.where(checked & inlier, e, 1.0), 0.0).sum(axis=0)
                 cost = np.where(n3d >= min_common, cost, np.inf)
@@ -84,11 +109,15 @@ def view_consensus(P: np.ndarray, u: np.ndarray, v: np.ndarray, ok: np.ndarray, 
                 best = np.where(better, cost, best)
                 keep = np.where(better, inlier, keep)
                 swap = np.where(better, sw & inlier, swap)
+                swap_legs = np.where(better, (sw | lg) & inlier, swap_legs)
     n_sw = np.sum(keep & swap, axis=0)
     n_keep = np.sum(keep & ~swap, axis=0)
     invert = n_sw > n_keep
+    # relabel every kept view: upper body and legs each toggle (a legs-only swap stays one)
+    swap_legs = np.where(invert, keep & ~swap_legs, swap_legs)
     swap = np.where(invert, keep & ~swap, swap)
-    return Consensus(keep=keep, swap=swap, tie=(n_sw == n_keep) & (n_sw > 0))
+    return Consensus(keep=keep, swap=swap, tie=(n_sw == n_keep) & (n_sw > 0),
+                     swap_legs=swap_legs if legs is not None else None)
 
 
 def settle_ties(X: np.ndarray, tie: np.ndarray, flip: np.ndarray) -> np.ndarray:

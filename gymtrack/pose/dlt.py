@@ -128,13 +128,13 @@ def rays(K: np.ndarray, R: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarr
 
 
 def fuse_rays_plane(origins: np.ndarray, d: np.ndarray, w: np.ndarray, point: np.ndarray,
-                    normal: np.ndarray, sigma_plane: float) -> np.ndarray:
+                    normal: np.ndarray, sigma_plane: float | np.ndarray) -> np.ndarray:
     """Information-form fusion of lines of sight with a plane prior.
 
     Each view's ray (origin ``o_c`` (C, 3), unit direction ``d`` (C, 3, N)) says the point lies on
     it with lateral standard deviation ``1 / sqrt(w)`` metres (w (C, N), 0 = not seen): information
     ``w (I - d d^T)``. The plane through ``point`` (3, N) with unit ``normal`` (3,) adds
-    ``n n^T / sigma_plane^2`` along its normal only. The fused point solves
+    ``n n^T / sigma_plane^2`` along its normal only (sigma_plane: a scalar or (N,) per point). The fused point solves
     ``(sum Lambda) X = sum Lambda X_0``. One view: exactly the ray-plane intersection (Eq. 7);
     two near-opposite views: their depth along the baseline comes from the plane, the rest
     from the rays. Returns X (3, N), NaN where singular (a lone ray parallel to the plane).
@@ -143,7 +143,7 @@ def fuse_rays_plane(origins: np.ndarray, d: np.ndarray, w: np.ndarray, point: np
     info_c = (np.eye(3)[:, :, None, None] - dd) * w[None, None]  # (3, 3, C, N)
     L = info_c.sum(axis=2)
     eta = np.einsum("ijcn,cj->in", info_c, origins)
-    nn = np.outer(normal, normal)[:, :, None] / sigma_plane**2
+    nn = np.outer(normal, normal)[:, :, None] / np.broadcast_to(np.asarray(sigma_plane, np.float64), L.shape[2:])**2
     L = L + nn
-    eta = eta + np.einsum("ij,jn->in", nn[:, :, 0], point)
+    eta = eta + np.einsum("ijn,jn->in", nn, point)
     return solve3(L, eta)

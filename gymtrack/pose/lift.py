@@ -6,13 +6,19 @@ with Eq. 3. ``method="dlt"`` is exactly that, per joint over the views that foun
 ``method="robust"`` (the default) goes beyond the paper, in this order:
 
 1. confidence-weighted DLT (:mod:`.dlt`): a view's rows weigh its 2D score over the pose's box
-   size (the pixel noise of a top-down model scales with its crop);
+   size (the pixel noise of a top-down model scales with its crop); the all-view solution gives
+   each joint's 2D noise level on this track (:func:`noise_level`), and the gate a view must
+   meet is a multiple of it (it follows the pose model's noise, the joint's difficulty and the
+   calibration's own error; a fixed share of the box rejected a third of the good views);
 2. a per-frame consensus over views (:mod:`.consensus`) that drops views whose reprojection
-   disagrees and reads a view with left and right exchanged where that fits clearly better;
+   disagrees and reads a view with left and right exchanged -- whole body or legs only -- where
+   that fits clearly better; where no two views agree, every view is kept (flagged, low score):
+   robust never estimates fewer joints than ``dlt`` because the consensus failed;
 3. per joint, the worst view is dropped when its reprojection exceeds the gate (3+ views);
 4. the cascade for joints (:mod:`.anchor`): a joint seen by one view, or only by an opposite
    pair, is anchored on the plane through the target's centre parallel to the apparatus
-   plane (given ``centre`` and ``plane_normal``), fused with its rays by their uncertainty;
+   plane (given ``centre`` and ``plane_normal``), fused with its rays by their uncertainty (the
+   plane prior's spread per joint measured on the track where wider than configured);
 5. per-track bone lengths (median over well-observed frames) pull weak joints along their
    line of sight (:func:`.anchor.pull_to_bones`);
 6. temporal smoothing that keeps flight phases sharp (:mod:`.smooth`).
@@ -33,7 +39,7 @@ from ..geometry import Rig
 from ..geometry.triangulation import triangulate_views
 from ..poses import HOW_FUSED, HOW_NONE, HOW_PLANE, HOW_TRIANGULATED, Poses3D
 from ..skeletons import Skeleton
-from .anchor import anchor_on_plane, bone_lengths, lines_of_sight, opposite_only, pull_to_bones
+from .anchor import anchor_on_plane, bone_lengths, lines_of_sight, opposite_only, plane_spread, pull_to_bones
 from .consensus import settle_ties, view_consensus
 from .dlt import gauss_newton, residuals, weighted_dlt
 from .smooth import smooth_track
@@ -47,9 +53,16 @@ class LiftOptions:
 
     min_score: 2D keypoints scored at or below are "not found". Higher drops more wrong joints
         and more right ones (HRNet scores fall to ~0.3 on occluded joints).
-    gate_frac, gate_min_px: a view disagrees when its reprojection error exceeds
-        ``max(gate_min_px, gate_frac * box)``, box = the larger side of the pose's keypoint
-        extent in that view. Lower rejects more noise and more good views at wrists and ankles.
+    gate_sigmas, gate_frac, gate_min_px: a view disagrees on a joint when its reprojection
+        error exceeds ``max(gate_min_px, box * max(gate_frac, gate_sigmas * sigma_j))``, box = the
+        larger side of the pose's keypoint extent in that view, ``sigma_j`` the joint's pixel
+        noise over the box *measured on this track* (:func:`noise_level`: the residuals of the
+        all-view solution, so the gate follows the pose model's noise, the joint's difficulty and
+        the calibration's own error). Lower rejects more noise and more good views; a fixed
+        share of the box (the floor) rejected a third of the good views of hard poses.
+    noise_frac: ``sigma`` of every joint given instead of measured (0 = measure on the track):
+        for tracks too short to measure it on (single snapshots), from :func:`measure_noise`
+        over many of them.
     flip_ratio: a view is read left/right-swapped when that brings its lateral joints' error
         below this share of the unswapped error. Lower = only clear swaps (a 3/4 view of a
         narrow body looks alike both ways).
@@ -60,8 +73,10 @@ class LiftOptions:
         (Eq. 3 is the reprojection error, the DLT only its linear start).
     opposite_angle_deg: two views whose lines of sight meet above this are an opposite pair
         (the scene's default); a joint seen only by them goes to the plane.
-    plane_sigma_m: the plane prior's standard deviation along its normal: the body's joints lie
-        within ~0.3-0.5 m of the plane through its centre. Smaller trusts the plane more.
+    plane_sigma_m: the plane prior's standard deviation along its normal, at least: the body's
+        joints lie within ~0.3-0.5 m of the plane through its centre; each joint's prior is its
+        spread measured on the track where larger (:func:`.anchor.plane_spread`: a pommel horse
+        circle sweeps the legs across the plane). Smaller trusts the plane more.
     pixel_sigma_frac: a keypoint's pixel noise as a share of the box (top-down models: ~2-5 %);
         it sets the rays' weight against the plane.
     min_plane_cos: a lone ray this close to parallel to the plane (|cos| to the normal) gets no
@@ -73,10 +88,14 @@ class LiftOptions:
         farther than this from its neighbours' fit is replaced by it.
     plane_score_factor: score multiplier of plane-anchored and fused joints (their depth is a
         prior, not a measurement).
+    fallback_score_factor: score multiplier of a frame where no two views agreed: it keeps the
+        confidence-weighted all-view solution (never fewer joints than ``dlt``), flagged.
     """
 
     min_score: float = 0.2
-    gate_frac: float = 0.08
+    gate_sigmas: float = 6.0
+    gate_frac: float = 0.04
+    noise_frac: float = 0.0
     gate_min_px: float = 4.0
     flip_ratio: float = 0.6
     inlier_error: float = 0.5
@@ -93,6 +112,7 @@ class LiftOptions:
     smooth_half_window: int = 2
     smooth_outlier_m: float = 0.15
     plane_score_factor: float = 0.5
+    fallback_score_factor: float = 0.3
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -116,7 +136,8 @@ class Lifted:
     xyz (T, J, 3) world metres, NaN = not estimated; score (T, J) in [0, 1]; n_views (T, J)
     views that contributed; reproj_px (T, J) their mean reprojection error (undistorted pixels,
     NaN if none); how (T, J) int8 ``gymtrack.poses.HOW_*``; counts: what the lifting did
-    (``views_dropped``, ``views_swapped``, ``frames_relabelled``, ``joint_views_dropped``,
+    (``views_dropped``, ``views_swapped``, ``views_legs_swapped``, ``frames_fallback`` (no two
+    views agreed: all kept), ``joints_fallback``, ``frames_relabelled``, ``joint_views_dropped``,
     ``joints_plane``, ``joints_fused``, ``joints_bone_pulled``, ``joints_smoothed_outliers``,
     ``joints_unobservable``: weak joints left without a position).
     """
@@ -191,19 +212,26 @@ def lift_track(rig: Rig, keypoints: np.ndarray, skeleton: Skeleton, method: str 
     """
     kp, centre, normal = _check(rig, keypoints, skeleton, method, centre, plane_normal, options)
     T, C, J = kp.shape[:3]
-    score = np.nan_to_num(kp[..., 2], nan=0.0)
-    found = np.isfinite(kp[..., :2]).all(axis=3) & (score > options.min_score)
-    uv = np.stack([cam.undistort(kp[:, c, :, :2]) for c, cam in enumerate(rig)], axis=1)
-    found &= np.isfinite(uv).all(axis=3)
-    u, v = (np.ascontiguousarray(uv[..., k].transpose(1, 2, 0)) for k in (0, 1))  # (C, J, T)
-    ok, sc = found.transpose(1, 2, 0), score.transpose(1, 2, 0)
+    u, v, ok, sc = _prepare(rig, kp, options)
     P = rig.projections
     if method == "dlt":
         X, _ = triangulate_views(P, u.reshape(C, -1), v.reshape(C, -1), ok.reshape(C, -1), options.dlt_refine)
         X3 = X.reshape(3, J, T).transpose(2, 1, 0)
         how = np.where(np.isfinite(X3).all(axis=2), HOW_TRIANGULATED, HOW_NONE).astype(np.int8)
-        return _finish(P, X3, u, v, ok, sc, how, _gate(u, v, ok, options), options, {})
+        box = _box_size(u, v, ok)
+        sigma = noise_level(P, X.reshape(3, -1), u, v, ok.reshape(C, -1).astype(np.float64), box)
+        return _finish(P, X3, u, v, ok, sc, how, _gate(box, sigma, options), options, {})
     return _robust(rig, P, u, v, ok, sc, skeleton, centre, normal, options)
+
+
+def _prepare(rig, kp, options):
+    """Undistorted pixels u, v, found mask and scores, each (C, J, T), of keypoints (T, C, J, 3)."""
+    score = np.nan_to_num(kp[..., 2], nan=0.0)
+    found = np.isfinite(kp[..., :2]).all(axis=3) & (score > options.min_score)
+    uv = np.stack([cam.undistort(kp[:, c, :, :2]) for c, cam in enumerate(rig)], axis=1)
+    found &= np.isfinite(uv).all(axis=3)
+    u, v = (np.ascontiguousarray(uv[..., k].transpose(1, 2, 0)) for k in (0, 1))  # (C, J, T)
+    return u, v, found.transpose(1, 2, 0), score.transpose(1, 2, 0)
 
 
 def _box_size(u, v, ok):
@@ -217,21 +245,86 @@ def _box_size(u, v, ok):
     return np.where(np.isfinite(size), size, fallback)
 
 
-def _gate(u, v, ok, options):
-    return np.maximum(options.gate_min_px, options.gate_frac * _box_size(u, v, ok))
+def noise_level(P: np.ndarray, X: np.ndarray, u: np.ndarray, v: np.ndarray, w: np.ndarray, box: np.ndarray,
+                min_samples: int = 20, max_ratio: float = 2.5) -> np.ndarray:
+    """(J,) each joint's 2D noise (std per coordinate) as a share of the box, measured on the track.
+
+    From the reprojection residuals of X (3, J T) -- e.g. the confidence-weighted all-view
+    solution -- in the views with w (C, J T) > 0; box (C, T). A point fit to n views keeps
+    ``(2n - 3) / 2n`` of its 2n squared-noise degrees of freedom in the residuals, so residuals
+    are scaled back by that; the median of the 2D residual over 1.1774 is the std per coordinate
+    (Rayleigh), robust to up to half the samples being outliers (wrong bodies, swaps). A joint
+    with fewer than ``min_samples`` samples takes the pooled value of all joints; 0 without any.
+    A joint's value stays within ``max_ratio`` of the pooled one: a joint one view gets wrong in
+    every frame must not widen its own gate (HRNet's hardest joint, the ankle, is ~1.7 x the
+    shoulder's error; occlusion adds more).
+    """
+    C, J, T = u.shape
+    r = residuals(P, X, u.reshape(C, -1), v.reshape(C, -1)).reshape(C, J, T) / box[:, None, :]
+    use = (w.reshape(C, J, T) > 0) & np.isfinite(r)
+    n = use.sum(axis=0)
+    keep = use & (n >= 2)[None]
+    dof = np.sqrt(np.maximum(2 * n - 3, 0) / np.maximum(2 * n, 1))
+    z = np.where(keep, r / np.where(dof > 0, dof, 1.0)[None], np.nan).transpose(1, 0, 2).reshape(J, -1)
+    count = keep.sum(axis=(0, 2))
+    if not count.sum():
+        return np.zeros(J)
+    pooled = float(np.nanmedian(z)) / 1.1774
+    with warnings.catch_warnings():  # joints never seen twice: NaN, replaced below
+        warnings.simplefilter("ignore", RuntimeWarning)
+        per_joint = np.nanmedian(z, axis=1) / 1.1774
+    return np.where(count >= min_samples, np.clip(per_joint, pooled / max_ratio, pooled * max_ratio), pooled)
+
+
+def _gate(box, sigma, options):
+    """(C, J, T) pixels: the reprojection error above which a view disagrees on a joint."""
+    frac = np.maximum(options.gate_frac, options.gate_sigmas * np.nan_to_num(sigma))
+    return np.maximum(options.gate_min_px, box[:, None, :] * frac[None, :, None])
+
+
+def _all_views(P, u, v, ok, sc, box, opt):
+    """The confidence-weighted solution over every view (3, J T), its weights (C, J T) and the
+    joints' noise level (J,): the reference the gate is measured on, and the fallback."""
+    C = u.shape[0]
+    w = np.where(ok, sc / box[:, None, :], 0.0).reshape(C, -1)
+    uf, vf = u.reshape(C, -1), v.reshape(C, -1)
+    X = gauss_newton(P, weighted_dlt(P, uf, vf, w), uf, vf, w, opt.refine_iterations)
+    sigma = np.full(u.shape[1], opt.noise_frac) if opt.noise_frac > 0 else noise_level(P, X, u, v, w, box)
+    return X, w, sigma
+
+
+def measure_noise(rig: Rig, keypoints: np.ndarray, skeleton: Skeleton, options: LiftOptions = LiftOptions()) -> float:
+    """The 2D noise level (std per coordinate over the box, pooled over joints) of keypoints
+    (T, C, J, 3) raw pixels: :func:`noise_level` of their all-view solution. For
+    ``LiftOptions.noise_frac`` when single snapshots are lifted one by one (T rows = snapshots,
+    e.g. persons); it uses no ground truth."""
+    kp, _, _ = _check(rig, keypoints, skeleton, "robust", None, None, options)
+    C = kp.shape[1]
+    u, v, ok, sc = _prepare(rig, kp, options)
+    box = _box_size(u, v, ok)
+    X, w, _ = _all_views(rig.projections, u, v, ok, sc, box, options)
+    return float(np.median(noise_level(rig.projections, X, u, v, w, box, min_samples=np.iinfo(np.int64).max)))
 
 
 def _robust(rig, P, u, v, ok, sc, skeleton, centre, normal, opt) -> Lifted:
     C, J, T = u.shape
     flip = np.asarray(skeleton.flip, dtype=np.int64)
     box = _box_size(u, v, ok)
-    gate = np.maximum(opt.gate_min_px, opt.gate_frac * box)
-    cons = view_consensus(P, u, v, ok, gate, flip, opt.flip_ratio, opt.inlier_error, opt.min_common)
+    X_all, w_all, sigma = _all_views(P, u, v, ok, sc, box, opt)
+    gate = _gate(box, sigma, opt)
+    legs = leg_joints(skeleton)
+    cons = view_consensus(P, u, v, ok, gate, flip, opt.flip_ratio, opt.inlier_error, opt.min_common, legs)
     present = ok.any(axis=1)
-    counts = {"views_dropped": int((present & ~cons.keep).sum()), "views_swapped": int(cons.swap.sum())}
-    sw = cons.swap[:, None, :]
+    # no two views agreed (e.g. two views of different bodies): keep them all, flagged, rather
+    # than give nothing -- robust never estimates fewer joints than dlt because consensus failed
+    fallback = ((cons.keep & present).sum(axis=0) < 2) & (present.sum(axis=0) >= 2)
+    keep = np.where(fallback, present, cons.keep)
+    sw = np.where(fallback[None, None, :], False, cons.reading(legs))  # (C, J, T)
+    swap = sw.any(axis=1)
+    counts = {"views_dropped": int((present & ~keep).sum()), "views_swapped": int((sw[:, ~legs].any(axis=1) & swap).sum()),
+              "views_legs_swapped": int((~sw[:, ~legs].any(axis=1) & swap).sum()), "frames_fallback": int(fallback.sum())}
     u, v, ok, sc = (np.where(sw, a[:, flip], a) for a in (u, v, ok, sc))
-    use = ok & cons.keep[:, None, :]
+    use = ok & keep[:, None, :]
     w = np.where(use, sc / box[:, None, :], 0.0).reshape(C, -1)
     uf, vf = u.reshape(C, -1), v.reshape(C, -1)
     X = gauss_newton(P, weighted_dlt(P, uf, vf, w), uf, vf, w, opt.refine_iterations)
@@ -239,7 +332,7 @@ def _robust(rig, P, u, v, ok, sc, skeleton, centre, normal, opt) -> Lifted:
     r = np.where(w > 0, residuals(P, X, uf, vf), -np.inf)
     worst = np.argmax(r, axis=0)
     n = np.arange(X.shape[1])
-    gate_n = np.repeat(gate[:, None, :], J, axis=1).reshape(C, -1)
+    gate_n = gate.reshape(C, -1)
     drop = ((w > 0).sum(axis=0) >= 3) & (r[worst, n] > gate_n[worst, n])
     if drop.any():
         w[worst[drop], n[drop]] = 0.0
@@ -247,9 +340,13 @@ def _robust(rig, P, u, v, ok, sc, skeleton, centre, normal, opt) -> Lifted:
         Xs = weighted_dlt(P, uf[:, sub], vf[:, sub], w[:, sub])
         X[:, sub] = gauss_newton(P, Xs, uf[:, sub], vf[:, sub], w[:, sub], opt.refine_iterations)
     counts["joint_views_dropped"] = int(drop.sum())
+    if centre is None:  # no plane for the joints the consensus left with one view: all views, flagged
+        lost = ((w > 0).sum(axis=0) < 2) & ((w_all > 0).sum(axis=0) >= 2) & ~np.repeat(swap.any(axis=0), J)
+        X[:, lost], w[:, lost] = X_all[:, lost], w_all[:, lost]
+        counts["joints_fallback"] = int(lost.sum())
     use = (w > 0).reshape(C, J, T)
     X3 = X.reshape(3, J, T).transpose(2, 1, 0).copy()  # (T, J, 3)
-    relabel = settle_ties(X3, cons.tie, flip)
+    relabel = settle_ties(X3, cons.tie & ~fallback, flip)
     if relabel.any():
         X3[relabel] = X3[relabel][:, flip]
         u, v, use, sc = (np.where(relabel, a[:, flip], a) for a in (u, v, use, sc))
@@ -260,7 +357,13 @@ def _robust(rig, P, u, v, ok, sc, skeleton, centre, normal, opt) -> Lifted:
     mean_sc = np.where(use, sc, 0.0).sum(axis=0).T / np.maximum(use.sum(axis=0).T, 1)
     X3, outliers = smooth_track(X3, mean_sc * how_w, opt.smooth_half_window, opt.smooth_outlier_m)
     counts["joints_smoothed_outliers"] = int(outliers.sum())
-    return _finish(P, X3, u, v, use, sc, how, gate, opt, counts)
+    return _finish(P, X3, u, v, use, sc, how, gate, opt, counts, np.where(fallback, opt.fallback_score_factor, 1.0))
+
+
+def leg_joints(skeleton: Skeleton) -> np.ndarray:
+    """(J,) bool: the skeleton's leg joints (hips down), by name."""
+    parts = ("hip", "knee", "ankle", "heel", "toe", "foot")
+    return np.array([any(p in name for p in parts) for name in skeleton.joints], bool)
 
 
 def _cascade(rig, X3, u, v, use, sc, box, centre, normal, skeleton, opt):
@@ -286,8 +389,10 @@ def _cascade(rig, X3, u, v, use, sc, box, centre, normal, skeleton, opt):
         good = np.isfinite(centre[t_of]).all(axis=1)
         sel_c = sel[good]
         sigma_px = opt.pixel_sigma_frac * np.repeat(box[:, None, :], J, axis=1).reshape(C, -1)[:, sel_c]
+        strong = ((n_views >= 2) & ~weak & finite).T
+        spread = plane_spread(X3, strong, centre, normal, opt.plane_sigma_m, opt.bone_min_frames)
         Xa = anchor_on_plane(rig, o, d[:, :, good], d_main[:, good], w[:, sel_c], centre[sel_c % T].T, normal,
-                             sigma_px, opt.plane_sigma_m, opt.min_plane_cos)
+                             sigma_px, spread[sel_c // T], opt.min_plane_cos)
         j, t = sel_c // T, sel_c % T
         X3[t, j] = Xa.T
         placed = np.isfinite(Xa).all(axis=0)
@@ -311,8 +416,9 @@ def _cascade(rig, X3, u, v, use, sc, box, centre, normal, skeleton, opt):
     return X3, how.T.copy(), weak.T, counts
 
 
-def _finish(P, X3, u, v, use, sc, how, gate, opt, counts) -> Lifted:
-    """Reprojection errors and scores of the final joints X3 (T, J, 3)."""
+def _finish(P, X3, u, v, use, sc, how, gate, opt, counts, frame_factor=1.0) -> Lifted:
+    """Reprojection errors and scores of the final joints X3 (T, J, 3); gate (C, J, T) pixels;
+    frame_factor (T,) or scalar multiplies the scores (fallback frames)."""
     C, J, T = u.shape
     X = X3.transpose(2, 1, 0).reshape(3, -1)
     r = residuals(P, X, u.reshape(C, -1), v.reshape(C, -1)).reshape(C, J, T)
@@ -321,11 +427,11 @@ def _finish(P, X3, u, v, use, sc, how, gate, opt, counts) -> Lifted:
     with np.errstate(invalid="ignore", divide="ignore"):
         reproj = np.where(n_views > 0, np.where(m, r, 0.0).sum(axis=0) / n_views, np.nan)
         mean_sc = np.where(m, sc, 0.0).sum(axis=0) / np.maximum(n_views, 1)
-        g = np.where(m, gate[:, None, :], 0.0).sum(axis=0) / np.maximum(n_views, 1)
+        g = np.where(m, gate, 0.0).sum(axis=0) / np.maximum(n_views, 1)
         quality = 1.0 / (1.0 + (reproj / g) ** 2)
     found = np.isfinite(X3).all(axis=2)
     how = np.where(found, how, HOW_NONE).astype(np.int8)
-    factor = np.where(how == HOW_TRIANGULATED, 1.0, opt.plane_score_factor)
+    factor = np.where(how == HOW_TRIANGULATED, 1.0, opt.plane_score_factor) * np.reshape(frame_factor, (-1, 1))
     score = np.where(found & (n_views.T > 0), np.clip(mean_sc.T * np.nan_to_num(quality.T) * factor, 0, 1), 0.0)
     return Lifted(xyz=X3, score=score, n_views=np.where(found, n_views.T, 0).astype(np.int64),
                   reproj_px=np.where(found, reproj.T, np.nan), how=how, counts=counts)
