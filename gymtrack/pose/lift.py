@@ -299,7 +299,6 @@ def measure_noise(rig: Rig, keypoints: np.ndarray, skeleton: Skeleton, options: 
     ``LiftOptions.noise_frac`` when single snapshots are lifted one by one (T rows = snapshots,
     e.g. persons); it uses no ground truth."""
     kp, _, _ = _check(rig, keypoints, skeleton, "robust", None, None, options)
-    C = kp.shape[1]
     u, v, ok, sc = _prepare(rig, kp, options)
     box = _box_size(u, v, ok)
     X, w, _ = _all_views(rig.projections, u, v, ok, sc, box, options)
