@@ -164,15 +164,7 @@ class Detector:
             raise InputError(f"not a detector gymtrack can run: {why}", source=path)
         self.kind, self.why = kind, why
         self.options = o = options.resolved(kind)
-        x = sig.inputs[0]
-        size = (x.dim(2), x.dim(3))
-        if None in size:
-            if o.input_size is None:
-                raise InputError("the model's input size is dynamic: give input_size [H, W] in models.yaml", source=path)
-            size = tuple(o.input_size)
-        self.input_name = x.name
-        self.input_size: tuple[int, int] = (int(size[0]), int(size[1]))  # type: ignore[index]
-        self.batched = x.dim(0) is None
+        self.input_name, self.input_size, self.batched = sig.image_input(o.input_size, path)
         self._grid, self._stride = grid_points(self.input_size, o.strides)
 
     @property

@@ -134,15 +134,7 @@ class PoseModel:
         if kind is None:
             raise InputError(f"not a pose model gymtrack can run: {why}", source=path)
         self.kind, self.why = kind, why
-        x = sig.inputs[0]
-        size = (x.dim(2), x.dim(3))
-        if None in size:
-            if o.input_size is None:
-                raise InputError("the model's input size is dynamic: give input_size [H, W] in models.yaml", source=path)
-            size = tuple(o.input_size)
-        self.input_name = x.name
-        self.input_size: tuple[int, int] = (int(size[0]), int(size[1]))  # type: ignore[index]
-        self.batched = x.dim(0) is None
+        self.input_name, self.input_size, self.batched = sig.image_input(o.input_size, path)
         if kind == "simcc":
             by = {t.name: i for i, t in enumerate(sig.outputs)}
             self._order = (by.get("simcc_x", 0), by.get("simcc_y", 1))

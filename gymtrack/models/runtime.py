@@ -59,6 +59,18 @@ class Signature:
     def output(self, name: str) -> Tensor | None:
         return next((t for t in self.outputs if t.name == name), None)
 
+    def image_input(self, input_size: Sequence[int] | None, path: str | Path) -> tuple[str, tuple[int, int], bool]:
+        """The image input ``(N, 3, H, W)``: (name, (H, W), batched). A dynamic H or W takes
+        ``input_size`` (models.yaml); ``batched`` is whether N is dynamic (several crops or
+        cameras in one run)."""
+        x = self.inputs[0]
+        size = (x.dim(2), x.dim(3))
+        if None in size:
+            if input_size is None:
+                raise InputError("the model's input size is dynamic: give input_size [H, W] in models.yaml", source=path)
+            size = tuple(input_size)
+        return x.name, (int(size[0]), int(size[1])), x.dim(0) is None
+
 
 _ORT_TYPES = {"tensor(float)": "float32", "tensor(float16)": "float16", "tensor(double)": "float64",
               "tensor(int64)": "int64", "tensor(int32)": "int32", "tensor(uint8)": "uint8", "tensor(bool)": "bool"}
