@@ -19,8 +19,9 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Optional
+from typing import Callable, Optional
 
+import numpy as np
 import typer
 from rich.console import Console
 from rich.table import Table
@@ -57,15 +58,29 @@ def print_summary(rows: list[dict]) -> list:
         for r in t5:
             tab.add_row(r["method"], *[fmt(r[f"fr_{n}"], "pct") for n in ns], fmt(r["fps"], "fps"))
         console.print(tab)
-    tab = Table(title="Targets", title_justify="left")
+    found = claims(rows)
+    console.print(claims_table("Targets", found, lambda v: fmt(v, "ratio") if abs(v) < 100 else fmt(v, "fps")))
+    return found
+
+
+def claims_table(title: str, found: list, value: Callable[[float], str]) -> Table:
+    """Claims (:class:`gymtrack.eval.aggregate.Claim`) as a rich table, PASS green and FAIL red."""
+    tab = Table(title=title, title_justify="left")
     for col in ("target", "value", "result", "detail"):
         tab.add_column(col)
     colour = {"PASS": "green", "FAIL": "red"}
-    found = claims(rows)
     for c in found:
-        tab.add_row(c.name, fmt(c.value, "ratio") if abs(c.value) < 100 else fmt(c.value, "fps"),
-                    f"[{colour.get(c.status, 'yellow')}]{c.status}[/]", c.detail)
-    console.print(tab)
+        tab.add_row(c.name, value(c.value), f"[{colour.get(c.status, 'yellow')}]{c.status}[/]", c.detail)
+    return tab
+
+
+def print_pose_claims(rows: list[dict]) -> list:
+    """The benchmark's pose targets (Fig. 7, lifting ablation) as a table; returns the claims."""
+    from gymtrack.eval.pose_bench import pose_claims
+
+    found = pose_claims(rows)
+    console.print(claims_table("Pose targets (MPJPE averaged over apparatus)", found,
+                               lambda v: "-" if not np.isfinite(v) else f"{v:.2f}"))
     return found
 
 
@@ -132,9 +147,7 @@ def benchmark(
     files = write_benchmark(run, out, meta={"suite": str(suite), "methods": ", ".join(method_list)}, wildtrack=wt, mvor=mv)
     found = print_summary(run.rows)
     if not no_pose:
-        from gymtrack.cli.pose import print_pose_claims
-
-        found = found + print_pose_claims(console, run.rows)
+        found = found + print_pose_claims(run.rows)
     failed = [r for r in run.rows if r.get("error")]
     if failed:
         console.print(f"[red]{len(failed)} runs failed[/] (listed in the report), e.g. {failed[0]['routine']} / "

@@ -161,19 +161,3 @@ def demo_pose_table(sim, results: dict, perf_frames: np.ndarray, seed: int = 0) 
         e = target_pose_error(p.frame, p.xyz, p.skeleton.joints, sim.frames, sim.keypoints[k], COCO17.joints, perf_frames)
         t.add_row(mode, f"{e.mpjpe:.0f} mm", f"{e.pa_mpjpe:.0f} mm", f"{e.pck:.0%}", f"{e.pose_share:.0%}")
     return t
-
-
-def print_pose_claims(con: Console, rows: list[dict]) -> list:
-    """The benchmark's pose targets (PASS / FAIL) as a rich table; returns the claims."""
-    from gymtrack.eval.pose_bench import pose_claims
-
-    tab = Table(title="Pose targets (MPJPE averaged over apparatus)", title_justify="left")
-    for col in ("target", "value", "result", "detail"):
-        tab.add_column(col)
-    colour = {"PASS": "green", "FAIL": "red"}
-    found = pose_claims(rows)
-    for c in found:
-        tab.add_row(c.name, "-" if not np.isfinite(c.value) else f"{c.value:.2f}",
-                    f"[{colour.get(c.status, 'yellow')}]{c.status}[/]", c.detail)
-    con.print(tab)
-    return found
