@@ -84,7 +84,17 @@ class TargetStage:
                ended: dict[int, int]) -> tuple[Target, Detections]:
         """Final frames ``a..b``: their track points and boxes (``track_id`` = 3D track), and the
         tracks that ended (id -> last frame; entries that can no longer matter are removed).
-        Returns the target's smoothed points and Eq. 14 boxes that became final."""
+        Returns the target's smoothed points and Eq. 14 boxes that became final.
+
+        When the run ends with more than :attr:`settle` frames without track points (a pause in
+        the stream), only the frames up to ``settle`` after the last point are decided -- by then
+        every state has forgotten it -- and the rest is jumped over: time and memory do not grow
+        with the pause."""
+        last = int(tracks.frame.max()) if len(tracks) else a - 1
+        if b - last > self.settle:
+            out = self.update(a, last + self.settle, tracks, boxes, ended)
+            self._jump()
+            return out
         ind, inperf = identify_indicator(tracks.xyz, tracks.top_z, tracks.bottom_z, self.perf, self.h_top, self.h_bot)
         target = self.selector.select(a, b, tracks.frame, tracks.track_id, ind, inperf, ended)  # (b-a+1,)
         self.backfill.push(a, target, TargetRows.from_tracks(tracks, track_box_sizes(tracks, boxes, self.n_cameras)))
@@ -96,6 +106,19 @@ class TargetStage:
         for tid in [k for k, v in ended.items() if v < horizon and k != self.selector.target]:
             del ended[tid]
         return self._boxes(emitted)
+
+    @property
+    def settle(self) -> int:
+        """Frames without points after which no state holds a point: Eq. 13's Delta, the
+        back-fill's hold and a gap the smoother could still fill."""
+        return self.identify_frames + self.backfill_frames + self.smoother.max_gap + 2
+
+    def _jump(self) -> None:
+        """After ``settle`` frames without points: the frames that follow need no decision (no target)."""
+        if self.backfill.pop() is not None or len(self.smoother) or self.selector.target >= 0:
+            raise RuntimeError("the target stage still held points after a pause")  # pragma: no cover - a bug
+        self.selector.forget()
+        self.backfill.restart()
 
     def finish(self) -> tuple[Target, Detections]:
         """End of stream: release the held-back decisions and close the last target segment."""
