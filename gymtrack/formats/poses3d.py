@@ -60,7 +60,10 @@ def _skeleton_for(names: Sequence[str], path: Path) -> Skeleton:
     fits = [s for s in SKELETONS.values() if have <= set(s.joints)]
     if fits:
         return min(fits, key=lambda s: len(s.joints))
-    return custom_skeleton(list(dict.fromkeys(names)))
+    try:
+        return custom_skeleton(list(dict.fromkeys(names)))
+    except InputError as e:  # e.g. an empty joint name: the file and the column named
+        raise InputError(e.problem, source=path, field="joint") from None
 
 
 def read_poses_3d(path: str | Path, skeleton: Skeleton | None = None) -> Poses3D:
