@@ -6,7 +6,7 @@ Each starts from a valid file and mutates it (a cell replaced by junk, a cell or
 doubled, the header changed, the text cut short; a YAML/JSON value replaced, removed or added).
 Whatever comes out, the reader either parses it -- and the result holds what the format promises
 -- or raises the project's :class:`~gymtrack.errors.InputError` naming the file and a line or
-field; never another exception. (MOTChallenge files, the native and aniposelib calibrations:
+field; never another exception. (WILDTRACK calibration XML too. MOTChallenge files, the native and aniposelib calibrations:
 ``test_parsers_hypothesis.py``; 2D keypoint files: ``test_keypoints_formats.py``.)
 """
 
@@ -23,7 +23,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from gymtrack.errors import InputError
-from gymtrack.formats.calibration import read_easymocap, read_panoptic
+from gymtrack.formats.calibration import read_easymocap, read_panoptic, read_wildtrack_calibration
 from gymtrack.formats.gt_keypoints import read_keypoints_3d
 from gymtrack.formats.ground_truth import read_persons_3d
 from gymtrack.formats.outputs import read_target_3d, read_tracks_3d
@@ -326,6 +326,60 @@ def test_mutated_easymocap_calibration(tmp, intri, extri):
     assert isinstance(rig, Rig) and len(rig) >= 1
 
 
+WILDTRACK_EXTR = """<?xml version="1.0"?>
+<opencv_storage>
+  <rvec>
+    1.759099006652832 0.46710100769996643 -0.331699013710022
+   </rvec>
+  <tvec>
+    -525.8941650390625 45.40763473510742 986.7235107421875
+  </tvec>
+</opencv_storage>
+"""
+WILDTRACK_INTR = """<?xml version="1.0"?>
+<opencv_storage>
+<camera_matrix type_id="opencv-matrix">
+  <rows>3</rows>
+  <cols>3</cols>
+  <dt>d</dt>
+  <data>1743.4478759765625 0.0 934.5202026367188 0.0 1735.1566162109375 444.3987731933594 0.0 0.0 1.0</data></camera_matrix>
+<distortion_coefficients type_id="opencv-matrix">
+  <rows>5</rows>
+  <cols>1</cols>
+  <dt>d</dt>
+  <data>
+    0 0
+    0 0
+    0</data></distortion_coefficients>
+</opencv_storage>
+"""
+
+
+def _wildtrack_folder(root: Path, extr: str, intr: str) -> Path:
+    (root / "extrinsic").mkdir(parents=True, exist_ok=True)
+    (root / "intrinsic_zero").mkdir(exist_ok=True)
+    (root / "intrinsic_original").mkdir(exist_ok=True)
+    (root / "extrinsic" / "extr_CVLab1.xml").write_text(extr)
+    for sub in ("intrinsic_zero", "intrinsic_original"):
+        (root / sub / "intr_CVLab1.xml").write_text(intr)
+    return root
+
+
+@SETTINGS
+@given(extr=st.one_of(st.just(WILDTRACK_EXTR), mutated_filestorage(WILDTRACK_EXTR)),
+       intr=st.one_of(st.just(WILDTRACK_INTR), mutated_filestorage(WILDTRACK_INTR)),
+       which=st.sampled_from(["zero", "original"]))
+def test_mutated_wildtrack_calibration(tmp, extr, intr, which):
+    root = _wildtrack_folder(tmp / "calibrations", extr, intr)
+    try:
+        rig = read_wildtrack_calibration(root, intrinsics=which)
+    except InputError as e:
+        assert e.source is not None and (Path(e.source) == root or Path(e.source).name in
+                                          ("extr_CVLab1.xml", "intr_CVLab1.xml")), str(e)
+        return
+    assert isinstance(rig, Rig) and len(rig) == 1
+
+
 def test_the_unmutated_files_parse(tmp, poses3d_text):
     """The starting points are valid: a failure above is the mutation's, not the base's."""
     for name, text, read in (("persons_3d.csv", PERSONS, read_persons_3d), ("keypoints_3d.csv", KEYPOINTS, read_keypoints_3d),
@@ -339,5 +393,7 @@ def test_the_unmutated_files_parse(tmp, poses3d_text):
     (tmp / "intri.yml").write_text(EASYMOCAP_INTRI)
     (tmp / "extri.yml").write_text(EASYMOCAP_EXTRI)
     assert len(read_easymocap(tmp / "intri.yml")) == 2
+    assert len(read_wildtrack_calibration(_wildtrack_folder(tmp / "calibrations", WILDTRACK_EXTR, WILDTRACK_INTR),
+                                          intrinsics="original")) == 1
     (tmp / "scene.yaml").write_text(yaml.safe_dump(SCENE))
     assert isinstance(load_scene(tmp / "scene.yaml"), Scene)
