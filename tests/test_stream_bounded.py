@@ -202,10 +202,14 @@ def test_track_with_one_line_at_frame_1e9_fails_quickly_naming_it(tmp_path):
 def test_track_over_a_pause_of_ten_million_frames_stays_small(tmp_path):
     routine = tmp_path / "r"
     shutil.copytree(EXAMPLE, routine)
-    with open(routine / "detections" / "cam0.txt", "a") as fh:
+    cam = routine / "detections" / "cam0.txt"
+    n = len(cam.read_text().splitlines())
+    with open(cam, "a") as fh:
         fh.write("10000000,-1,998.07,540.20,60.02,177.89,0.8867,-1,-1,-1\n")
     rc, text, seconds, rss = run_track_cli(routine, tmp_path / "out")
     assert rc == 0, text
     assert 0 < rss < 450e6  # ~280 MB (numba and the libraries); 660 MB when memory followed the range
+    words = " ".join(text.split())  # (rich may wrap the line)
+    assert "warning" in words and f"cam0.txt, line {n + 1}: 9999699 frames without a box" in words  # ~92 h: said
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert summary["frames"] == 301 and summary["last_frame"] == 10_000_000

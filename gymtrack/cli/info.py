@@ -122,6 +122,8 @@ def print_routine_info(routine: Routine, console: Console | None = None) -> None
     console.print(cameras_table(routine.rig))
     console.print(opposite_table(routine.rig, routine.scene))
     console.print(detections_table(routine))
+    for w in routine.gap_warnings():
+        console.print(f"[yellow]warning:[/] {w}", highlight=False)
     if routine.ignored:
         console.print(f"ignored in detections/ (not .txt): {', '.join(p.name for p in routine.ignored)}", highlight=False)
     console.print(scene_table(routine.scene))

@@ -32,7 +32,7 @@ def summary_table(summary: dict, title: str = "Tracking summary") -> Table:
     t.add_column("what")
     t.add_column("value", justify="right")
     t.add_row("mode", str(summary["mode"]))
-    t.add_row("frames", f"{summary['frames']}")
+    t.add_row("frames (with boxes)", f"{summary['frames']}")
     read, used = summary["detections_read"], summary["detections_used"]
     for cam in read:
         t.add_row(f"detections {cam} (used / read)", f"{used[cam]} / {read[cam]}")
@@ -62,6 +62,8 @@ def track(
     if mode not in MODES:
         raise InputError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}", field="--mode")
     r = load_routine(routine)
+    for w in r.gap_warnings():  # (the tracker skips a pause at no cost; a wrong frame number is likelier)
+        console.print(f"[yellow]warning:[/] {w}", highlight=False)
     with Progress(TextColumn("[bold]tracking"), BarColumn(), MofNCompleteColumn(), TextColumn("frames"),
                   TimeRemainingColumn(), console=console, transient=True) as bar:
         task = bar.add_task("track", total=None)
