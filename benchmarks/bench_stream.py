@@ -18,6 +18,11 @@ outputs are counted and dropped, as a consumer of the stream would. Prints, per 
 boxes, seconds, frames per second, the tracker's held state (:meth:`Tracker.state_size`) at the
 end, and peak RSS; then the ratio of the longest to the shortest. Exit status 1 when the ratio
 exceeds ``--max-ratio``.
+
+Measured (shared 2-core machine): peak RSS 278.5 MB at 10,000 frames, 278.5 MB at 30,000,
+279.7 MB at 108,000 (ratio 1.004; 256 MB of it before the first frame: numpy, scipy, OpenCV,
+numba's kernels); the tracker's held state at most 1,344 / 1,344 / 1,707 rows while ~3,000
+tracks came and went; 1,400-2,600 frames per second with ~10 boxes per view.
 """
 
 from __future__ import annotations
