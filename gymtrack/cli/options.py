@@ -53,7 +53,8 @@ def read_routine(
     opts = {} if units is None else {"units": units}
     r = load_routine(path, calibration_format, **opts)
     checks = check_detections(r.detections, r.rig, r.scene.fps, silent_seconds)
-    for msg in checks.warnings():
+    # a pause of hours costs the tracker nothing, but a wrong frame number is likelier
+    for msg in r.gap_warnings() + checks.warnings():
         REPORTER.warn(msg)
     return r, checks
 

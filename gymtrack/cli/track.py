@@ -40,7 +40,7 @@ def summary_table(summary: dict, title: str = "Tracking summary") -> Table:
     t.add_column("what")
     t.add_column("value", justify="right")
     t.add_row("mode", str(summary["mode"]))
-    t.add_row("frames", f"{summary['frames']}")
+    t.add_row("frames (with boxes)", f"{summary['frames']}")
     read, used = summary["detections_read"], summary["detections_used"]
     for cam in read:
         t.add_row(f"detections {cam} (used / read)", f"{used[cam]} / {read[cam]}")

@@ -239,7 +239,7 @@ def track_mvpt(
 
     target, target_boxes, switches = select_target(rig, scene, tracks, boxes, max_age)
     t4 = clock()
-    frames = int(det.frame.max() - det.frame.min() + 1) if len(det) else 0
+    frames = int(np.unique(det.frame).size)  # frames with boxes, as the tracker counts them
     total = t4 - t0
     summary = {
         "mode": "mvpt",

@@ -21,6 +21,7 @@ from ..detections import Detections
 from ..errors import RoutineError
 from ..scene import in_box
 from .motchallenge import read_gt_boxes
+from .textfile import read_text
 
 __all__ = ["GroundTruth", "ROLES", "load_ground_truth", "read_persons_3d"]
 
@@ -132,10 +133,7 @@ def _parse_rows(path: Path, ncols: int, header_first: str | None) -> tuple[list[
 
     Returns the rows and the 1-based line number of each, for error messages.
     """
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise RoutineError("file not found", source=path) from None
+    text = read_text(path, RoutineError)
     rows: list[list[str]] = []
     lines: list[int] = []
     for k, line in enumerate(text.splitlines(), start=1):
@@ -145,9 +143,9 @@ def _parse_rows(path: Path, ncols: int, header_first: str | None) -> tuple[list[
         parts = [p.strip() for p in s.split(",")]
         if header_first is not None and k == 1 and parts[0] == header_first:
             continue
-        if len(parts) < ncols:
-            raise RoutineError(f"expected at least {ncols} comma-separated values, got {len(parts)}", source=path, line=k)
-        rows.append(parts[:ncols])
+        if len(parts) != ncols:  # (more would be dropped unseen)
+            raise RoutineError(f"expected {ncols} comma-separated values, got {len(parts)}", source=path, line=k)
+        rows.append(parts)
         lines.append(k)
     return rows, lines
 
@@ -157,7 +155,7 @@ def _numeric(rows: list[list[str]], lines: list[int], cols: Sequence[int], names
         return np.zeros((0, len(cols)))
     arr = np.array(rows, dtype=object)[:, list(cols)]
     try:
-        return arr.astype(np.float64)
+        num = arr.astype(np.float64)
     except ValueError:
         for r, ln in zip(rows, lines):
             for c, nm in zip(cols, names):
@@ -166,6 +164,21 @@ def _numeric(rows: list[list[str]], lines: list[int], cols: Sequence[int], names
                 except ValueError:
                     raise RoutineError(f"{nm} must be a number, got {r[c]!r}", source=path, line=ln, field=nm) from None
         raise
+    bad = np.isinf(num)
+    if bad.any():
+        i, j = np.argwhere(bad)[0]
+        raise RoutineError(f"{names[j]} must be finite, got {rows[i][cols[j]]!r}", source=path, line=lines[i],
+                           field=names[j])
+    return num
+
+
+def _whole(v: np.ndarray, lines: list[int], name: str, path: Path) -> np.ndarray:
+    """(n,) floats that must be whole numbers (ids, frames) -> int64, else the line is named."""
+    bad = np.flatnonzero(~np.isfinite(v) | (v != np.round(v)) | (np.abs(v) > 2.0**53))
+    if bad.size:
+        k = int(bad[0])
+        raise RoutineError(f"{name} must be a whole number, got {v[k]!r}", source=path, line=lines[k], field=name)
+    return v.astype(np.int64)
 
 
 def read_persons_3d(path: str | Path) -> dict[str, np.ndarray]:
@@ -175,10 +188,7 @@ def read_persons_3d(path: str | Path) -> dict[str, np.ndarray]:
     and, if the file has a 9th column named ``phase`` in its header, ``phase`` (P,) bool.
     """
     path = Path(path)
-    try:
-        first = path.read_text().split("\n", 1)[0].strip().split(",")
-    except FileNotFoundError:
-        raise RoutineError("file not found", source=path) from None
+    first = read_text(path, RoutineError).split("\n", 1)[0].strip().split(",")
     has_phase = len(first) >= 9 and first[0].strip() == "frame" and first[8].strip() == "phase"
     rows, lines = _parse_rows(path, 9 if has_phase else 8, "frame")
     names = ["frame", "person_id", "x", "y", "z", "top_z", "bottom_z"]
@@ -189,8 +199,8 @@ def read_persons_3d(path: str | Path) -> dict[str, np.ndarray]:
         k = int(np.flatnonzero(bad)[0])
         raise RoutineError(f"role must be one of {', '.join(ROLES)}, got {role[k]!r}", source=path, line=lines[k], field="role")
     out = {
-        "frame": num[:, 0].astype(np.int64),
-        "person_id": num[:, 1].astype(np.int64),
+        "frame": _whole(num[:, 0], lines, "frame", path),
+        "person_id": _whole(num[:, 1], lines, "person_id", path),
         "role": role,
         "xyz": num[:, 2:5].copy(),
         "top_z": num[:, 5].copy(),

@@ -47,7 +47,7 @@ def _fast(text: str) -> np.ndarray | None:
         return None
     v = v.reshape(n, 6)
     j = v[:, 2] - _CODE
-    whole = np.isfinite(v[:, :2]).all() and np.all(v[:, :2] == np.round(v[:, :2]))
+    whole = np.all(np.abs(v[:, :2]) <= 2.0**53) and np.all(v[:, :2] == np.round(v[:, :2]))
     if not whole or np.any((j < 0) | (j > 16) | (j != np.round(j))) or np.isinf(v[:, 3:]).any():
         return None
     v[:, 2] = j
@@ -73,7 +73,7 @@ def _numbers(col: np.ndarray, lines: np.ndarray, name: str, path: Path, integer:
     except ValueError:
         v = None
     if v is not None and integer:
-        v_ok = np.isfinite(v) & (v == np.round(v))
+        v_ok = (np.abs(v) <= 2.0**53) & (v == np.round(v))  # (NaN fails both)
     elif v is not None:
         v_ok = ~np.isinf(v)
     if v is None or not np.all(v_ok):
@@ -82,7 +82,7 @@ def _numbers(col: np.ndarray, lines: np.ndarray, name: str, path: Path, integer:
                 x = float(s)
             except ValueError:
                 x = None
-            if x is None or np.isinf(x) or (integer and (not np.isfinite(x) or x != round(x))):
+            if x is None or np.isinf(x) or (integer and (not np.isfinite(x) or x != round(x) or abs(x) > 2.0**53)):
                 what = "a whole number" if integer else "a number"
                 raise InputError(f"{name} must be {what}, got {s!r}", source=path, line=int(ln), field=name)
     return v.astype(np.int64) if integer else v

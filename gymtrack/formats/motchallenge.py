@@ -5,6 +5,12 @@ that the tracker starts from. Files carry MOTChallenge lines
 ``frame, id, bb_left, bb_top, bb_width, bb_height, conf, x, y, z`` (top-left form); inside the
 code boxes are centre form (:mod:`gymtrack.detections`).
 
+Frame numbers are checked, never allocated over: memory and time follow the lines, not the
+frame range. A frame above :data:`MAX_FRAME` (10^8: 38 days at 30 fps -- a corrupt or mistyped
+line, not a recording) is an error naming the line; long pauses are accepted and reported
+(``ReadReport.largest_gap`` and its line; :meth:`ReadReport.gap_warning` words it at the
+scene's fps), since the tracker skips them at no cost.
+
 Parsing is vectorised: the non-blank lines are parsed at once by numpy's C text reader
 (``np.loadtxt``); Python only touches a line again to name it in an error message.
 """
@@ -24,6 +30,10 @@ from .textfile import read_text
 
 MIN_COLUMNS = 6
 MAX_COLUMNS = 10
+#: the largest frame number accepted (10^8 frames: 38 days at 30 fps)
+MAX_FRAME = 10**8
+#: seconds: a pause between two frames with boxes longer than this is worth a warning
+LONG_GAP_SECONDS = 3600.0
 
 
 @dataclass
@@ -43,6 +53,8 @@ class ReadReport:
     skipped: reason -> count of lines not turned into boxes (blank lines).
     frames: distinct frames with at least one box.
     frame_range: (first, last) frame, or None for no boxes.
+    largest_gap: the most frames without a box between two frames with boxes (0: none).
+    largest_gap_line: the line of the first box after that gap (0: no gap).
     """
 
     path: Path
@@ -55,6 +67,15 @@ class ReadReport:
     skipped: dict[str, int] = field(default_factory=dict)
     frames: int = 0
     frame_range: tuple[int, int] | None = None
+    largest_gap: int = 0
+    largest_gap_line: int = 0
+
+    def gap_warning(self, fps: float, seconds: float = LONG_GAP_SECONDS) -> str | None:
+        """A message naming the file and line when the largest gap exceeds ``seconds`` at ``fps``."""
+        if self.largest_gap <= seconds * fps:
+            return None
+        return (f"{self.path}, line {self.largest_gap_line}: {self.largest_gap} frames without a box before this "
+                f"line ({self.largest_gap / fps / 3600:.1f} h at {fps:g} fps); a wrong frame number?")
 
 
 def _split_lines(path: Path, text: str) -> tuple[list[str], np.ndarray, int]:
@@ -158,17 +179,26 @@ def _frames_and_order(table: np.ndarray, path: Path, lineno: np.ndarray, report:
     if neg.size:
         i = int(neg[0])
         raise DetectionFormatError(f"frame must be >= 0 (MOTChallenge frames start at 1), got {int(frame[i])}", source=path, line=int(lineno[i]))
+    big = np.flatnonzero(frame > MAX_FRAME)
+    if big.size:
+        i = int(big[0])
+        raise DetectionFormatError(f"frame {int(frame[i])} is beyond {MAX_FRAME:.0e} (38 days at 30 fps): a wrong frame "
+                                   "number?", source=path, line=int(lineno[i]))
     report.frame_zero_lines = int(np.count_nonzero(frame == 0))
     report.unsorted_lines = int(np.count_nonzero(np.diff(frame) < 0))
     order = np.argsort(frame, kind="stable")
+    gap = np.diff(frame[order]) - 1
+    if gap.size and gap.max() > 0:
+        k = int(np.argmax(gap))
+        report.largest_gap, report.largest_gap_line = int(gap[k]), int(lineno[order[k + 1]])
     return frame, order
 
 
 def _finish_report(report: ReadReport, frame: np.ndarray) -> None:
     report.boxes = int(frame.size)
     if frame.size:
-        report.frames = int(np.unique(frame).size)
-        report.frame_range = (int(frame.min()), int(frame.max()))
+        report.frames = int(np.count_nonzero(np.diff(frame)) + 1)  # (sorted)
+        report.frame_range = (int(frame[0]), int(frame[-1]))
 
 
 def read_detections(

@@ -16,6 +16,7 @@ heights are written empty. Frame numbers are the input's.
 from __future__ import annotations
 
 import csv
+import io
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -26,6 +27,7 @@ import numpy as np
 from ..detections import Detections
 from ..errors import InputError
 from .motchallenge import write_mot
+from .textfile import read_text
 
 TRACKS_3D_COLUMNS = ("frame", "track_id", "x", "y", "z", "top_z", "bottom_z", "source", "n_views")
 TARGET_3D_COLUMNS = ("frame", "track_id", "x", "y", "z", "source")
@@ -105,37 +107,58 @@ def read_target_3d(path: str | Path) -> dict[str, np.ndarray]:
     return _read_csv(Path(path), TARGET_3D_COLUMNS)
 
 
+#: the ``source`` values the tracker writes (``tracking.types.SOURCE_NAMES``; formats sits below tracking)
+SOURCES = ("triangulation", "plane", "interpolated")
+
+
 def _read_csv(path: Path, columns: tuple[str, ...]) -> dict[str, np.ndarray]:
+    """Columns of a tracker output CSV; an InputError names the line and column of the first bad value."""
+    reader = csv.reader(io.StringIO(read_text(path), newline=""))
     try:
-        with open(path, newline="") as fh:
-            rows = list(csv.reader(fh))
-    except FileNotFoundError:
-        raise InputError("file not found", source=path) from None
-    if not rows or tuple(rows[0]) != columns:
+        rows = [(reader.line_num, r) for r in reader if r]  # (blank lines carry nothing)
+    except csv.Error as exc:
+        raise InputError(f"not CSV: {exc}", source=path, line=reader.line_num) from None
+    if not rows or tuple(rows[0][1]) != columns:
         raise InputError(f"expected the header {','.join(columns)}", source=path, line=1)
-    body = rows[1:]
+    body = [r for _, r in rows[1:]]
+    lines = np.array([n for n, _ in rows[1:]], np.int64)
     for i, r in enumerate(body):
         if len(r) != len(columns):
-            raise InputError(f"expected {len(columns)} values, got {len(r)}", source=path, line=i + 2)
+            raise InputError(f"expected {len(columns)} values, got {len(r)}", source=path, line=int(lines[i]))
     col = {name: [r[j] for r in body] for j, name in enumerate(columns)}
 
-    def num(name, dtype=np.float64):
-        try:
-            return np.array([float(v) if v != "" else np.nan for v in col[name]], dtype=dtype)
-        except ValueError as exc:
-            raise InputError(f"column {name!r}: {exc}", source=path) from None
+    def num(name: str, whole: bool = False) -> np.ndarray:
+        v = np.full(len(body), np.nan)
+        for i, text in enumerate(col[name]):
+            try:
+                v[i] = float(text) if text.strip() != "" or whole else np.nan
+            except ValueError:
+                raise InputError(f"{name} must be a number, got {text!r}", source=path, line=int(lines[i]),
+                                 field=name) from None
+        bad = ~(np.abs(v) <= 2.0**53) | (v != np.round(v)) if whole else np.isinf(v)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            what = "a whole number" if whole else "a finite number or empty"
+            raise InputError(f"{name} must be {what}, got {col[name][i]!r}", source=path, line=int(lines[i]), field=name)
+        return v.astype(np.int64) if whole else v
 
+    source = np.array(col["source"], dtype=object)
+    bad = ~np.isin(source.astype(str), SOURCES)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise InputError(f"source must be one of {', '.join(SOURCES)}, got {source[i]!r}", source=path,
+                         line=int(lines[i]), field="source")
     out = {
-        "frame": num("frame").astype(np.int64),
-        "track_id": num("track_id").astype(np.int64),
+        "frame": num("frame", True),
+        "track_id": num("track_id", True),
         "xyz": np.column_stack([num("x"), num("y"), num("z")]) if body else np.zeros((0, 3)),
-        "source": np.array(col["source"], dtype=object),
+        "source": source,
     }
     for extra in ("top_z", "bottom_z"):
         if extra in columns:
             out[extra] = num(extra)
     if "n_views" in columns:
-        out["n_views"] = num("n_views").astype(np.int64)
+        out["n_views"] = num("n_views", True)
     return out
 
 

@@ -17,6 +17,7 @@ also takes the 9 formats.md columns without it (``how`` then reads as ``none``).
 from __future__ import annotations
 
 import csv
+import io
 from pathlib import Path
 from typing import Sequence
 
@@ -25,6 +26,7 @@ import numpy as np
 from ..errors import InputError
 from ..poses import HOW_NAMES, HOW_NONE, Poses3D
 from ..skeletons import SKELETONS, Skeleton, custom_skeleton
+from .textfile import read_text
 
 __all__ = ["POSES_3D_COLUMNS", "write_poses_3d", "read_poses_3d"]
 
@@ -60,7 +62,10 @@ def _skeleton_for(names: Sequence[str], path: Path) -> Skeleton:
     fits = [s for s in SKELETONS.values() if have <= set(s.joints)]
     if fits:
         return min(fits, key=lambda s: len(s.joints))
-    return custom_skeleton(list(dict.fromkeys(names)))
+    try:
+        return custom_skeleton(list(dict.fromkeys(names)))
+    except InputError as e:  # e.g. an empty joint name: the file and the column named
+        raise InputError(e.problem, source=path, field="joint") from None
 
 
 def read_poses_3d(path: str | Path, skeleton: Skeleton | None = None) -> Poses3D:
@@ -72,11 +77,11 @@ def read_poses_3d(path: str | Path, skeleton: Skeleton | None = None) -> Poses3D
     ``how``, or a (frame, track_id, joint) given twice.
     """
     path = Path(path)
+    reader = csv.reader(io.StringIO(read_text(path), newline=""))
     try:
-        with open(path, newline="") as fh:
-            rows = list(csv.reader(fh))
-    except FileNotFoundError:
-        raise InputError("file not found", source=path) from None
+        rows = list(reader)
+    except csv.Error as exc:
+        raise InputError(f"not CSV: {exc}", source=path, line=reader.line_num) from None
     if not rows:
         raise InputError(f"empty file; expected the header {','.join(POSES_3D_COLUMNS)}", source=path, line=1)
     header = tuple(rows[0])
@@ -106,7 +111,7 @@ def read_poses_3d(path: str | Path, skeleton: Skeleton | None = None) -> Poses3D
 
     frame, track = num(0, "frame"), num(1, "track_id")
     for col, name in ((frame, "frame"), (track, "track_id")):
-        bad = np.flatnonzero(~np.isfinite(col) | (col != np.round(col)))
+        bad = np.flatnonzero(~(np.abs(col) <= 2.0**53) | (col != np.round(col)))
         if bad.size:
             raise InputError(f"{name} must be a whole number", source=path, line=int(bad[0]) + 2, field=name)
     xyz = np.column_stack([num(3, "x"), num(4, "y"), num(5, "z")]) if body else np.zeros((0, 3))
@@ -114,6 +119,13 @@ def read_poses_3d(path: str | Path, skeleton: Skeleton | None = None) -> Poses3D
     if bad.size:
         raise InputError("x, y, z must be numbers (a joint not estimated has no line)", source=path, line=int(bad[0]) + 2)
     score, n_views, reproj = num(6, "score"), num(7, "n_views"), num(8, "reproj_px")
+    for col, name, bad in ((score, "score", np.isinf(score)), (reproj, "reproj_px", np.isinf(reproj)),
+                           (n_views, "n_views", ~(np.isnan(n_views) | ((n_views >= 0) & (n_views <= 2**31)
+                                                                       & (n_views == np.round(n_views)))))):
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise InputError(f"{name} must be {'a whole number >= 0' if name == 'n_views' else 'finite'} or empty, "
+                             f"got {body[i][POSES_3D_COLUMNS.index(name)]!r}", source=path, line=i + 2, field=name)
     how = np.full(len(body), HOW_NONE, np.int8)
     if ncol == len(POSES_3D_COLUMNS):
         code = {n: k for k, n in enumerate(HOW_NAMES)}

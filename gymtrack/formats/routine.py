@@ -69,6 +69,11 @@ class Routine:
     def detection_path(self, camera: str) -> Path:
         return self.path / "detections" / f"{camera}.txt"
 
+    def gap_warnings(self) -> list[str]:
+        """One message per detection file whose longest pause between frames with boxes exceeds
+        an hour at the scene's fps (:meth:`ReadReport.gap_warning`): a wrong frame number, likely."""
+        return [w for r in self.reports if (w := r.gap_warning(self.scene.fps)) is not None]
+
     def gt_boxes_path(self, camera: str) -> Path | None:
         """``gt/boxes_2d/<camera>.txt`` when present."""
         p = self.path / "gt" / "boxes_2d" / f"{camera}.txt"

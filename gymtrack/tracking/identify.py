@@ -66,6 +66,12 @@ class TargetSelector:
     def __len__(self) -> int:
         return len(self._frame)
 
+    def forget(self) -> None:
+        """Drop the indicator rows (a pause longer than Delta: none of them can count again)."""
+        self.target = -1
+        self._frame, self._tid = self._frame[:0], self._tid[:0]
+        self._ind, self._inperf = self._ind[:0], self._inperf[:0]
+
     def select(self, a: int, b: int, frame: np.ndarray, tid: np.ndarray, ind: np.ndarray, inperf: np.ndarray,
                ended: dict[int, int]) -> np.ndarray:
         """Final frames ``a..b`` at once: rows (n,) of their track points (frame, tid, ind, inperf).
@@ -221,6 +227,10 @@ class TargetBackfill:
         self._decision = np.concatenate([self._decision, np.asarray(decision, np.int64)])
         self._rows = rows if self._rows is None else TargetRows.concat([self._rows, rows])
         backfill(self._decision, self._rows.frame - self._first, self._rows.track_id, self.frames, since, self._last)
+
+    def restart(self) -> None:
+        """After every decision was released: the next :meth:`push` may start at any later frame."""
+        self._first, self._decision, self._rows = None, self._decision[:0], None
 
     def pop(self, upto: int | None = None) -> TargetRows | None:
         """Release the frames up to ``upto`` (None: all): the target's points among them (frame

@@ -68,6 +68,7 @@ class TargetStage:
         self.smoother = TargetSmoother(p.max_gap)
         self.memory: dict = {}  # Eq. 14: the body box's last half-length
         self.frames = 0  # target frames emitted
+        self._last_point: int | None = None  # the last frame with a track point (pauses are jumped)
 
     def __len__(self) -> int:
         return len(self.selector) + len(self.smoother) + len(self.backfill)
@@ -84,7 +85,27 @@ class TargetStage:
                ended: dict[int, int]) -> tuple[Target, Detections]:
         """Final frames ``a..b``: their track points and boxes (``track_id`` = 3D track), and the
         tracks that ended (id -> last frame; entries that can no longer matter are removed).
-        Returns the target's smoothed points and Eq. 14 boxes that became final."""
+        Returns the target's smoothed points and Eq. 14 boxes that became final.
+
+        A pause of more than :attr:`settle` frames without track points (in the run, or since the
+        last point) is decided over its first ``settle`` frames only -- by then every state has
+        forgotten the last point -- and the rest is jumped over: time and memory do not grow with
+        the pause."""
+        cut = self._pause(a, b, tracks.frame)
+        if cut is not None:
+            p, q = cut  # the last point before the pause (None: none held), the first after it (None: none)
+            out = []
+            if p is not None and p + self.settle >= a:
+                before, bb = tracks.frame <= p, boxes.frame <= p
+                out.append(self.update(a, p + self.settle, tracks.select(before), boxes.select(bb), ended))
+            self._jump()
+            if q is not None:
+                after, ba = tracks.frame >= q, boxes.frame >= q
+                out.append(self.update(q, b, tracks.select(after), boxes.select(ba), ended))
+            return (Target.concat([t for t, _ in out]), Detections.concat([d for _, d in out])) if out else \
+                (Target.empty(), Detections.empty(self.rig.names))
+        if len(tracks):
+            self._last_point = max(self._last_point if self._last_point is not None else a, int(tracks.frame.max()))
         ind, inperf = identify_indicator(tracks.xyz, tracks.top_z, tracks.bottom_z, self.perf, self.h_top, self.h_bot)
         target = self.selector.select(a, b, tracks.frame, tracks.track_id, ind, inperf, ended)  # (b-a+1,)
         self.backfill.push(a, target, TargetRows.from_tracks(tracks, track_box_sizes(tracks, boxes, self.n_cameras)))
@@ -96,6 +117,34 @@ class TargetStage:
         for tid in [k for k, v in ended.items() if v < horizon and k != self.selector.target]:
             del ended[tid]
         return self._boxes(emitted)
+
+    def _pause(self, a: int, b: int, frame: np.ndarray) -> tuple[int | None, int | None] | None:
+        """The first pause longer than :attr:`settle` in frames ``a..b`` (points at ``frame``):
+        (last point before it or None, first point after it or None), or None without one."""
+        u = np.unique(frame)
+        held = self._last_point is not None
+        prev = self._last_point if held else a - 1  # (nothing held: a pause only if the first point is far)
+        s = np.r_[prev, u, b + 1]
+        gap = np.flatnonzero(np.diff(s) - 1 > self.settle)
+        if not len(gap):
+            return None
+        k = int(gap[0])
+        p, q = int(s[k]), int(s[k + 1])
+        return (p if k > 0 or held else None), (q if q <= b else None)
+
+    @property
+    def settle(self) -> int:
+        """Frames without points after which no state holds a point: Eq. 13's Delta, the
+        back-fill's hold and a gap the smoother could still fill."""
+        return self.identify_frames + self.backfill_frames + self.smoother.max_gap + 2
+
+    def _jump(self) -> None:
+        """After ``settle`` frames without points: the frames that follow need no decision (no target)."""
+        if self.backfill.pop() is not None or len(self.smoother) or self.selector.target >= 0:
+            raise RuntimeError("the target stage still held points after a pause")  # pragma: no cover - a bug
+        self.selector.forget()
+        self.backfill.restart()
+        self._last_point = None
 
     def finish(self) -> tuple[Target, Detections]:
         """End of stream: release the held-back decisions and close the last target segment."""

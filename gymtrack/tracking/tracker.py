@@ -134,6 +134,7 @@ class Tracker:
         # stream position
         self.first_frame: int | None = None
         self.last_frame: int | None = None
+        self.frames = 0  # frames that carried boxes (the summary's count; the range may be far larger)
         self.final_frame: int | None = None  # every frame <= this is final
         self._next_start: int | None = None
         self._window_index = 0
@@ -166,6 +167,7 @@ class Tracker:
                 bad = int(detections.frame[detections.frame != frame][0])
                 raise InputError(f"update({frame}, ...) got a box of frame {bad}", field="frame")
             raise InputError(f"camera index outside 0..{self.n_cameras - 1}", field="camera")
+        self.frames += len(camera) > 0
         self._ingest(frame, camera, detections.box, detections.score, detections.track_id)
         return self._collect()
 
@@ -188,9 +190,9 @@ class Tracker:
         return len(self.iou) + len(self.table) + len(self.records) + len(self.linker) + len(self.target)
 
     def summary(self) -> dict:
-        """Counts and timings so far: frames, detections read / used / dropped per camera,
-        tracks, target frames and switches, seconds per stage, frames per second."""
-        frames = 0 if self.first_frame is None else self.last_frame - self.first_frame + 1
+        """Counts and timings so far: frames with boxes, detections read / used / dropped per
+        camera, tracks, target frames and switches, seconds per stage, frames (with boxes) per second."""
+        frames = self.frames
         total = sum(self.timings.values())
         names = self.names
         s = {
@@ -371,6 +373,8 @@ class Tracker:
 
     # ================================================================ finalisation (Eq. 12, stages 7-8)
     def _finalise(self, upto: int) -> None:
+        if self._finished:  # the last windows reach past the input: no output frames beyond its last one
+            upto = min(upto, self.last_frame)
         if upto <= self.final_frame:
             return
         t0 = time.perf_counter()
@@ -413,7 +417,8 @@ def track_detections(
     """Run the streaming :class:`Tracker` over all frames of ``detections`` (offline use): one
     :meth:`Tracker.update` per frame with boxes, so input is checked as in streaming use.
 
-    progress: optional ``progress(frames_done, frames_total)`` callback, called every ~100 frames.
+    progress: optional ``progress(frames_done, frames_total)`` callback (frames with boxes), called
+    every ~100 frames.
     """
     tracker = Tracker(rig, resolve_auto_planes(rig, scene, detections, track_detections), mode=mode, association=association)
     det = detections.sorted()
@@ -421,13 +426,13 @@ def track_detections(
     if len(det):
         frames, first = np.unique(det.frame, return_index=True)
         bounds = np.r_[first, len(det)].tolist()
-        total = int(frames[-1] - frames[0] + 1)
+        total = len(frames)  # frames with boxes: a gap costs neither time nor progress
         for i, f in enumerate(frames.tolist()):
             out = tracker.update(f, det.select(slice(bounds[i], bounds[i + 1])))
             if out:  # (nothing became final at most frames)
                 outs.append(out)
             if progress is not None and i % 100 == 0:
-                progress(int(f - frames[0] + 1), total)
+                progress(i + 1, total)
         if progress is not None:
             progress(total, total)
     outs.append(tracker.finish())
