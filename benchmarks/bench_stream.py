@@ -37,6 +37,8 @@ from pathlib import Path
 
 import numpy as np
 
+from gymtrack.detections import Detections
+
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLE = ROOT / "examples" / "balance_beam"
 #: metres: a person's half width, half depth and height (the 3D box the views see)
@@ -80,10 +82,8 @@ class Crowd:
         return out
 
 
-def detections_of(rig, centres: np.ndarray, f0: int, rng) -> "Detections":
+def detections_of(rig, centres: np.ndarray, f0: int, rng) -> Detections:
     """Raw-pixel boxes (bounding boxes of the projected 3D box corners) of every view."""
-    from gymtrack.detections import Detections
-
     n, P, _ = centres.shape
     sx, sy, h = BODY
     corners = np.array([[x, y, z] for x in (-sx, sx) for y in (-sy, sy) for z in (-h / 2, h / 2)])

@@ -94,7 +94,7 @@ def main() -> None:
     from gymtrack.pose.stage import lift_poses
     from gymtrack.simulate import simulate_routine
     from gymtrack.simulate.pose_model import simulate_pose_model_for_routine
-    from gymtrack.tracking.tracker import track_detections
+    from gymtrack.tracking.offline import track_detections
 
     F = a.frames
     ms: dict[str, float] = {}

@@ -27,8 +27,8 @@ from .errors import GymtrackError, InputError  # noqa: E402
 _LAZY = {
     "Tracker": "gymtrack.tracking.tracker",
     "TrackerOutput": "gymtrack.tracking.types",
-    "track_detections": "gymtrack.tracking.tracker",
-    "track_routine": "gymtrack.tracking.tracker",
+    "track_detections": "gymtrack.tracking.offline",
+    "track_routine": "gymtrack.tracking.offline",
     "Scene": "gymtrack.scene",
     "Rig": "gymtrack.geometry.camera",
 }

@@ -31,7 +31,7 @@ def fit_plane(
     from gymtrack.formats.routine import load_routine
     from gymtrack.formats.scene import save_scene
     from gymtrack.tracking.plane_fit import fit_scene_planes, with_plane
-    from gymtrack.tracking.tracker import track_detections
+    from gymtrack.tracking.offline import track_detections
 
     r = load_routine(routine)
     fit = fit_scene_planes(track_detections(r.rig, r.scene, r.detections, mode="triangulation"), r.scene, min_views)

@@ -69,7 +69,7 @@ def _stages(routine: Path, out: Path, rig, scene, det, pm, mode: str, all_tracks
     from gymtrack.formats.poses3d import write_poses_3d
     from gymtrack.models import pose_videos
     from gymtrack.pose.stage import lift_poses, pose_model_boxes
-    from gymtrack.tracking.tracker import track_detections
+    from gymtrack.tracking.offline import track_detections
 
     console.print(f"detector {det.session.path.name} ({det.kind}, {det.provider}); "
                   f"pose model {pm.session.path.name} ({pm.kind}, {pm.skeleton.name}, {pm.provider})", highlight=False)

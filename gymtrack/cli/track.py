@@ -91,7 +91,7 @@ def track(
     from gymtrack.errors import InputError
     from gymtrack.formats.atomic import atomic_output
     from gymtrack.formats.outputs import write_outputs
-    from gymtrack.tracking.tracker import track_detections
+    from gymtrack.tracking.offline import track_detections
 
     if mode not in MODES:
         raise InputError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}", field="--mode")
@@ -139,7 +139,7 @@ def demo(
     from gymtrack.formats.atomic import atomic_output
     from gymtrack.formats.outputs import write_outputs
     from gymtrack.simulate import simulate_routine
-    from gymtrack.tracking.tracker import track_detections
+    from gymtrack.tracking.offline import track_detections
 
     if out is not None:  # fail on a bad --out before the work
         from gymtrack.formats.atomic import check_output_folder

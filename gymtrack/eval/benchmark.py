@@ -67,7 +67,8 @@ def run_method(method: str, rig: Rig, scene: Scene, det: Detections, gt: GroundT
 
     The oracle needs ``gt``: its GT matching happens before the clock starts.
     """
-    from ..tracking.tracker import MODES, track_detections
+    from ..tracking.offline import track_detections
+    from ..tracking.tracker import MODES
 
     extra: dict = {}
     if method in MODES:

@@ -22,7 +22,7 @@ from ..geometry.plane import Plane
 from ..geometry.plane_fit import plane_difference
 from ..scene import Scene
 from ..tracking.plane_fit import fit_scene_planes, with_plane
-from ..tracking.tracker import track_detections
+from ..tracking.offline import track_detections
 from .metrics import average_euclidean_distance
 
 __all__ = ["perturbed_plane", "plane_experiment"]

@@ -119,7 +119,7 @@ def run_wildtrack(path: str | Path = DEFAULT_PATH, setup: WildtrackSetup = Wildt
     median and mean horizontal error (m), tracks, seconds and frames per second.
     """
     from ..formats.wildtrack import read_wildtrack_annotations, read_wildtrack_calibration
-    from ..tracking.tracker import track_detections
+    from ..tracking.offline import track_detections
 
     path = Path(path)
     if not (path / "annotations_positions").is_dir() or not (path / "calibrations").is_dir():

@@ -158,7 +158,7 @@ def lift_poses(result: TrackResult, rig: Rig, scene: Scene, poses: Poses2D, all_
     """The pose stage on a tracker result: assign, group per sequence, lift.
 
     result: the tracker's output (``tracks``, ``boxes``, ``target``, ``target_boxes``), e.g. from
-        :func:`gymtrack.tracking.tracker.track_detections` or :func:`read_track_result`.
+        :func:`gymtrack.tracking.offline.track_detections` or :func:`read_track_result`.
     poses: the 2D poses of the routine (any camera order; matched to ``rig`` by name).
     all_tracks: lift every 3D track (rows per (frame, track)); default: the target only.
     method: ``dlt`` (paper Eq. 3 per joint) | ``robust``; plane: with ``robust``, pass the centre

@@ -18,7 +18,8 @@
 
 from ._kernels import warm_up
 from .clustering import complete_linkage, tracklet_distances
-from .tracker import ASSOCIATIONS, MODES, Tracker, track_detections, track_routine
+from .offline import track_detections, track_routine
+from .tracker import ASSOCIATIONS, MODES, Tracker
 from .types import (
     INTERPOLATED, PLANE, SOURCE_NAMES, TRIANGULATION, Target, TrackerOutput, Tracks3D, TrackResult, WindowTracklets,
     WindowTracklets3D,

@@ -139,7 +139,7 @@ def with_plane(scene: Scene, plane: Plane) -> Scene:
 def resolve_auto_planes(rig: Rig, scene: Scene, detections: Detections,
                         track: Callable[..., TrackResult]) -> Scene:
     """``planes: auto``: the scene with the plane fitted to ``detections`` tracked by ``track``
-    (:func:`~.tracker.track_detections`, given by the caller) in ``triangulation`` mode; any
+    (:func:`~.offline.track_detections`, given by the caller) in ``triangulation`` mode; any
     other scene is returned as it is. Raises InputError when too few target points were
     triangulated."""
     if not scene.auto_planes:

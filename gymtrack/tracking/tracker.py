@@ -54,7 +54,6 @@ from __future__ import annotations
 
 import time
 from collections import defaultdict
-from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -72,11 +71,10 @@ from .clustering import complete_linkage, tracklet_distances
 from .fusion import PlaneRayFusion
 from .linking import WindowLinker
 from .plane_fallback import plane_stage
-from .plane_fit import resolve_auto_planes
 from .reconstruct import cluster_members, opposite_clusters, outliers, triangulate_clusters
 from .single_view import IoUTracker
 from .target import TargetStage
-from .types import TrackerOutput, Tracks3D, TrackResult, WindowTracklets, WindowTracklets3D
+from .types import TrackerOutput, Tracks3D, WindowTracklets, WindowTracklets3D
 from .records import BoxTable, WindowRecords
 from .windows import build_window
 
@@ -403,53 +401,3 @@ class Tracker:
         out = TrackerOutput.concat(self._out, self.names) if len(self._out) != 1 else self._out[0]
         self._out = []
         return out
-
-
-# ==================================================================== offline runners
-def track_detections(
-    rig: Rig,
-    scene: Scene,
-    detections: Detections,
-    mode: str = "cascade",
-    association: str = "iou",
-    progress: Callable[[int, int], None] | None = None,
-) -> TrackResult:
-    """Run the streaming :class:`Tracker` over all frames of ``detections`` (offline use): one
-    :meth:`Tracker.update` per frame with boxes, so input is checked as in streaming use.
-
-    progress: optional ``progress(frames_done, frames_total)`` callback (frames with boxes), called
-    every ~100 frames.
-    """
-    tracker = Tracker(rig, resolve_auto_planes(rig, scene, detections, track_detections), mode=mode, association=association)
-    det = detections.sorted()
-    outs = []
-    if len(det):
-        frames, first = np.unique(det.frame, return_index=True)
-        bounds = np.r_[first, len(det)].tolist()
-        total = len(frames)  # frames with boxes: a gap costs neither time nor progress
-        for i, f in enumerate(frames.tolist()):
-            out = tracker.update(f, det.select(slice(bounds[i], bounds[i + 1])))
-            if out:  # (nothing became final at most frames)
-                outs.append(out)
-            if progress is not None and i % 100 == 0:
-                progress(i + 1, total)
-        if progress is not None:
-            progress(total, total)
-    outs.append(tracker.finish())
-    out = TrackerOutput.concat(outs, rig.names)
-    return TrackResult(out.tracks, out.boxes, out.target, out.target_boxes, rig.names, mode, tracker.summary())
-
-
-def track_routine(
-    routine,
-    mode: str = "cascade",
-    association: str = "iou",
-    progress: Callable[[int, int], None] | None = None,
-) -> TrackResult:
-    """Track a routine folder (path) or a loaded :class:`gymtrack.formats.routine.Routine`."""
-    if isinstance(routine, (str, Path)):
-        from ..formats.routine import load_routine
-
-        routine = load_routine(routine)
-    return track_detections(routine.rig, routine.scene, routine.detections, mode=mode, association=association,
-                            progress=progress)
