@@ -52,9 +52,12 @@ class BatchResult:
 
 def killed_row(routine: BatchRoutine, exc: BaseException) -> dict:
     """The row of a routine whose task did not return: its worker died (``KilledWorker``) or it was lost."""
-    why = "its worker process died while running it (killed, e.g. out of memory, or crashed)" \
-        if type(exc).__name__ == "KilledWorker" else "the task failed outside the routine's steps"
-    return {"routine": routine.name, "status": "failed", "error": f"{why}: {error_text(exc)}", "frames": 0, "seconds": 0.0}
+    if type(exc).__name__ == "KilledWorker":
+        last = getattr(getattr(exc, "last_worker", None), "address", "?")
+        error = f"its worker process died while running it (killed, e.g. out of memory, or crashed): KilledWorker, last worker {last}"
+    else:
+        error = f"the task failed outside the routine's steps: {error_text(exc)}"
+    return {"routine": routine.name, "status": "failed", "error": error, "frames": 0, "seconds": 0.0}
 
 
 def _cell(v) -> str:
@@ -132,7 +135,7 @@ def run_batch(source: str | Path, out: str | Path, steps: tuple[str, ...] = STEP
                     f"warm-up {rep['warm_up_seconds']:.2f} s")
         t0 = time.perf_counter()
         finished = run_tasks(client, process_routine, args, done, keys=[r.name.replace("/", "_") for r in routines])
-    result.seconds = time.perf_counter() - t0
+        result.seconds = time.perf_counter() - t0  # the cluster's shutdown is not the routines' time
     result.interrupted = not finished
     result.not_run = [r.name for i, r in enumerate(routines) if i not in by_index]
     result.files = write_batch_files(out, result, meta)

@@ -22,11 +22,10 @@ import json
 import math
 import os
 import shutil
-import tempfile
 import time
 import traceback
+import uuid
 from pathlib import Path
-from typing import Mapping
 
 from .routines import MARKER, BatchRoutine, output_complete, write_marker
 
@@ -151,7 +150,8 @@ def process_routine(routine: BatchRoutine, out_root: str, steps: tuple[str, ...]
     try:
         dest.parent.mkdir(parents=True, exist_ok=True)
         _remove_stale(dest)
-        staging = Path(tempfile.mkdtemp(prefix=f".{dest.name}{_TMP_TAG}{os.getpid()}-", dir=dest.parent))
+        staging = dest.parent / f".{dest.name}{_TMP_TAG}{os.getpid()}-{uuid.uuid4().hex[:8]}"
+        staging.mkdir()  # (not mkdtemp: its 0700 would become the output folder's mode)
         prev = {}
         if "track" not in steps:
             if not (dest / "target_3d.csv").is_file():

@@ -13,7 +13,7 @@ app = typer.Typer(
 )
 
 # Sub-modules register their commands on `app` when imported.
-from . import info, simulate, track, benchmark, pose, eval  # noqa: E402,F401
+from . import info, simulate, track, benchmark, pose, eval, batch  # noqa: E402,F401
 
 
 def main() -> None:
