@@ -73,11 +73,12 @@ def numba_cache_report() -> dict:
 
 
 @contextmanager
-def dask_client(workers: int | None = None, scheduler: str | None = None, timeout: float = 30.0) -> Iterator[Any]:
+def dask_client(workers: int | None = None, scheduler: str | None = None, timeout: float = 30.0,
+                worker_timeout: float = 120.0) -> Iterator[Any]:
     """A ``distributed.Client``: of a new LocalCluster (``workers`` processes, one thread each) or of ``scheduler``.
 
     On exit the client is closed, and the LocalCluster with it. Raises InputError naming
-    ``--scheduler`` when it cannot be reached.
+    ``--scheduler`` when it cannot be reached in ``timeout`` s or has no worker after ``worker_timeout`` s.
     """
     _need_dask()
     import dask
@@ -90,6 +91,12 @@ def dask_client(workers: int | None = None, scheduler: str | None = None, timeou
             client = Client(scheduler, timeout=timeout)
         except (OSError, TimeoutError) as exc:
             raise InputError(f"cannot reach the Dask scheduler {scheduler}: {exc}", field="--scheduler") from None
+        try:
+            client.wait_for_workers(1, timeout=worker_timeout)
+        except TimeoutError:
+            client.close()
+            raise InputError(f"the Dask scheduler {scheduler} has no worker after {worker_timeout:g} s "
+                             "(start some with `dask worker ADDRESS`)", field="--scheduler") from None
     else:
         n = max(1, int(workers or os.cpu_count() or 1))
         # a dead worker fails its task at once (no re-run of a routine that kills workers)
