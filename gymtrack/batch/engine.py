@@ -33,7 +33,8 @@ def _need_dask():
     try:
         import distributed  # noqa: F401
     except ImportError:
-        raise InputError("gymtrack batch needs the 'batch' extra: pip install 'gymtrack[batch]'", field="--scheduler") from None
+        raise InputError("running routines on Dask (gymtrack batch, benchmark --jobs/--scheduler) needs the 'batch' extra: "
+                         "pip install 'gymtrack[batch]'") from None
 
 
 def warm_numba() -> None:
@@ -72,6 +73,38 @@ def numba_cache_report() -> dict:
             "warm_up_seconds": round(time.perf_counter() - t0, 3)}
 
 
+def _ignore_sigint_plugin():
+    """A worker plugin: the local workers ignore SIGINT. Ctrl-C reaches the whole process group;
+    this process cancels the work and closes the cluster, the workers must not die first."""
+    from distributed.diagnostics.plugin import WorkerPlugin
+
+    class IgnoreSigint(WorkerPlugin):
+        def setup(self, worker) -> None:
+            import signal
+            import threading
+
+            if threading.current_thread() is threading.main_thread():
+                signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    return IgnoreSigint()
+
+
+@contextmanager
+def _sigint_held() -> Iterator[None]:
+    """Hold SIGINT back while the cluster starts: a Ctrl-C then lands once it is up (and is closed
+    in order), never in a half-started cluster."""
+    import signal
+
+    if not hasattr(signal, "pthread_sigmask"):  # pragma: no cover (Windows)
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
 @contextmanager
 def dask_client(workers: int | None = None, scheduler: str | None = None, timeout: float = 30.0,
                 worker_timeout: float = 120.0) -> Iterator[Any]:
@@ -100,10 +133,11 @@ def dask_client(workers: int | None = None, scheduler: str | None = None, timeou
     else:
         n = max(1, int(workers or os.cpu_count() or 1))
         # a dead worker fails its task at once (no re-run of a routine that kills workers)
-        with dask.config.set({"distributed.scheduler.allowed-failures": 0}):
+        with dask.config.set({"distributed.scheduler.allowed-failures": 0}), _sigint_held():
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None,
                                    silence_logs=logging.CRITICAL)
-        client = Client(cluster)
+            client = Client(cluster)
+            client.register_plugin(_ignore_sigint_plugin(), name="gymtrack-ignore-sigint")
     try:
         yield client
     finally:

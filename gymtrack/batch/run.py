@@ -127,15 +127,20 @@ def run_batch(source: str | Path, out: str | Path, steps: tuple[str, ...] = STEP
             on_row(row, result)
 
     args = [(r, str(out), tuple(steps), mode, force, mot, faults.get(r.name)) for r in routines]
-    with dask_client(workers, scheduler) as client:
-        result.workers = {a: rep for a, rep in sorted(worker_reports(client).items())}
-        if log:
-            for addr, rep in result.workers.items():
-                log(f"worker {addr} (pid {rep['pid']} on {rep['host']}): numba cache {rep['cache_dir']}, "
-                    f"warm-up {rep['warm_up_seconds']:.2f} s")
-        t0 = time.perf_counter()
-        finished = run_tasks(client, process_routine, args, done, keys=[r.name.replace("/", "_") for r in routines])
-        result.seconds = time.perf_counter() - t0  # the cluster's shutdown is not the routines' time
+    t0 = time.perf_counter()
+    finished = False
+    try:
+        with dask_client(workers, scheduler) as client:
+            result.workers = {a: rep for a, rep in sorted(worker_reports(client).items())}
+            if log:
+                for addr, rep in result.workers.items():
+                    log(f"worker {addr} (pid {rep['pid']} on {rep['host']}): numba cache {rep['cache_dir']}, "
+                        f"warm-up {rep['warm_up_seconds']:.2f} s")
+            t0 = time.perf_counter()
+            finished = run_tasks(client, process_routine, args, done, keys=[r.name.replace("/", "_") for r in routines])
+            result.seconds = time.perf_counter() - t0  # the cluster's shutdown is not the routines' time
+    except KeyboardInterrupt:  # while the cluster starts or stops: the files still say what finished
+        finished = False
     result.interrupted = not finished
     result.not_run = [r.name for i, r in enumerate(routines) if i not in by_index]
     result.files = write_batch_files(out, result, meta)

@@ -14,6 +14,7 @@ gives the paper's 140 performances (each seen with n_cam = 2, 3 and 4) at the si
 
 from __future__ import annotations
 
+import importlib.util
 import os
 from pathlib import Path
 from typing import Optional
@@ -98,6 +99,10 @@ def benchmark(
             console.print(f"no --suite: using the suite already simulated in [bold]{suite}[/]")
     specs = read_suite(suite)
     runner = None
+    if not scheduler and n_jobs > 1 and importlib.util.find_spec("distributed") is None:
+        console.print("[yellow]note:[/] Dask is not installed (the 'batch' extra: pip install 'gymtrack[batch]'): "
+                      "running the routines one after another in this process")
+        n_jobs = 1
     if scheduler or n_jobs > 1:
         from gymtrack.batch.engine import dask_runner
 
