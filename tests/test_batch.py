@@ -122,3 +122,45 @@ def test_benchmark_through_the_batch_machinery(suite):
     drop = lambda rows: [{k: v for k, v in r.items() if k != "seconds"} for r in rows]  # noqa: E731
     assert drop(there.rows) == drop(here.rows) and len(here.rows) == 6
     assert set(there.trajectories) == set(here.trajectories)
+
+
+def test_ctrl_c_stops_cleanly_keeping_what_finished(suite, tmp_path):
+    """SIGINT to the whole process group (a terminal's Ctrl-C) while a routine runs: the batch stops
+    within seconds, batch.json lists what finished and what did not run, no staging folder stays."""
+    import json
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "out"
+    code = ("import sys\nfrom gymtrack.batch import run_batch\nif __name__ == '__main__':\n"
+            "    try:\n"
+            f"        run_batch({str(suite)!r}, {str(out)!r}, ('track',), workers=1, faults={{'uneven_bars/ncam3/r0': 'hang'}})\n"
+            "    except KeyboardInterrupt:\n        sys.exit(130)\n")
+    script = tmp_path / "run.py"
+    script.write_text(code)
+    root = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
+    p = subprocess.Popen([sys.executable, str(script)], env=env, start_new_session=True,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    try:
+        marker = out / "uneven_bars/ncam2/r0" / ".gymtrack-output.json"
+        deadline = time.monotonic() + 120
+        while not marker.is_file() and time.monotonic() < deadline and p.poll() is None:
+            time.sleep(0.2)
+        assert marker.is_file(), "the first routine did not finish"
+        time.sleep(1.0)  # the hanging routine is running now
+        os.killpg(p.pid, signal.SIGINT)
+        t0 = time.monotonic()
+        assert p.wait(timeout=60) == 130
+        assert time.monotonic() - t0 < 30
+    finally:
+        if p.poll() is None:
+            os.killpg(p.pid, signal.SIGKILL)
+            p.wait()
+    meta = json.loads((out / "batch.json").read_text())
+    assert meta["interrupted"] is True and meta["not_run"] == ["uneven_bars/ncam3/r0", "uneven_bars/ncam4/r0"]
+    assert [(r["routine"], r["status"]) for r in meta["rows"]] == [("uneven_bars/ncam2/r0", "ok")]
+    assert not (out / "uneven_bars/ncam3/r0").exists() and not list(out.rglob(".*gymtrack-tmp-*"))

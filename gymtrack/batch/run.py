@@ -23,7 +23,7 @@ from typing import Callable, Mapping
 
 from .engine import dask_client, run_tasks, worker_reports
 from .routines import STEPS, BatchRoutine, find_routines
-from .steps import BASE_COLUMNS, METRIC_COLUMNS, error_text, process_routine
+from .steps import BASE_COLUMNS, METRIC_COLUMNS, error_text, process_routine, remove_staging
 
 __all__ = ["BatchResult", "run_batch", "write_batch_files", "killed_row"]
 
@@ -143,6 +143,9 @@ def run_batch(source: str | Path, out: str | Path, steps: tuple[str, ...] = STEP
         finished = False
     result.interrupted = not finished
     result.not_run = [r.name for i, r in enumerate(routines) if i not in by_index]
+    for i, r in enumerate(routines):  # what a killed or stopped worker left half-written
+        if i not in by_index or (by_index[i]["status"] == "failed" and "worker process died" in by_index[i]["error"]):
+            remove_staging(out / r.name)
     result.files = write_batch_files(out, result, meta)
     if result.interrupted:
         raise KeyboardInterrupt

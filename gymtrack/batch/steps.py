@@ -56,15 +56,18 @@ def metrics_of(score: dict) -> dict:
 
 def _apply_fault(fault: str | None) -> None:
     """Test hook: make this routine fail the way a real one can ("exit": the worker process dies,
-    as when the kernel kills it for memory; "raise": an exception in a step)."""
+    as when the kernel kills it for memory; "raise": an exception in a step; "hang": a step that
+    takes minutes, to interrupt)."""
+    if fault == "hang":
+        time.sleep(300)
     if fault == "exit":
         os._exit(3)
     if fault == "raise":
         raise RuntimeError("fault injected by the test hook")
 
 
-def _remove_stale(dest: Path) -> None:
-    """Staging folders of this routine left by a killed worker."""
+def remove_staging(dest: Path) -> None:
+    """Remove the staging folders of the routine whose outputs go to ``dest`` (left by a killed worker)."""
     for p in dest.parent.glob(f".{dest.name}{_TMP_TAG}*"):
         shutil.rmtree(p, ignore_errors=True)
 
@@ -149,7 +152,7 @@ def process_routine(routine: BatchRoutine, out_root: str, steps: tuple[str, ...]
     staging = None
     try:
         dest.parent.mkdir(parents=True, exist_ok=True)
-        _remove_stale(dest)
+        remove_staging(dest)
         staging = dest.parent / f".{dest.name}{_TMP_TAG}{os.getpid()}-{uuid.uuid4().hex[:8]}"
         staging.mkdir()  # (not mkdtemp: its 0700 would become the output folder's mode)
         prev = {}
