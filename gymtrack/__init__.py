@@ -12,6 +12,10 @@ Layout (reads like the pipeline):
 * ``gymtrack.simulate``   routines with ground truth
 * ``gymtrack.eval``       metrics, baselines, benchmark
 * ``gymtrack.cli``        the ``gymtrack`` command
+
+Use from Python: ``gymtrack.Tracker(rig, scene)`` fed frame by frame (``update``/``finish``),
+or ``gymtrack.track_routine(folder)`` / ``gymtrack.track_detections(rig, scene, detections)``.
+The tracker's names are imported on first use, so ``import gymtrack`` stays light.
 """
 
 __version__ = "0.1.0"
@@ -19,4 +23,29 @@ __version__ = "0.1.0"
 from .detections import Detections  # noqa: E402
 from .errors import GymtrackError, InputError  # noqa: E402
 
-__all__ = ["Detections", "GymtrackError", "InputError", "__version__"]
+#: public names loaded on first access: name -> module
+_LAZY = {
+    "Tracker": "gymtrack.tracking.tracker",
+    "TrackerOutput": "gymtrack.tracking.types",
+    "track_detections": "gymtrack.tracking.tracker",
+    "track_routine": "gymtrack.tracking.tracker",
+    "Scene": "gymtrack.scene",
+    "Rig": "gymtrack.geometry.camera",
+}
+
+__all__ = ["Detections", "GymtrackError", "InputError", "Rig", "Scene", "Tracker", "TrackerOutput",
+           "track_detections", "track_routine", "__version__"]
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+        globals()[name] = value  # later lookups skip this function
+        return value
+    raise AttributeError(f"module 'gymtrack' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

@@ -73,3 +73,9 @@ class SceneError(InputError):
 
 class RoutineError(InputError):
     """A routine folder that is inconsistent (missing files, cameras without detections...)."""
+
+
+class GymtrackWarning(UserWarning):
+    """Something a user should know about their input or a result (a camera far from the origin,
+    a camera that goes silent, a run with no tracks). The command line prints these as one-line
+    messages; ``--strict`` makes them fatal."""

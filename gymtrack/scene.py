@@ -84,6 +84,11 @@ class Params(_Strict):
     max_gap: int = Field(7, ge=0, description="target gaps up to this many frames are interpolated")
     box_scale: float = Field(1.3, ge=1.0, description="alpha of Eq. 14")
     opposite_angle_deg: float = Field(150.0, gt=90, le=180)
+    # mode cascade+ (beyond the paper): two-view clusters fused with the plane by their uncertainty
+    plane_sigma: float = Field(0.25, gt=0, description="metres: how far the body's centre strays from the "
+                               "apparatus plane along its normal (the plane prior of cascade+)")
+    pixel_sigma: float = Field(2.0, gt=0, description="pixels: the detector's box-centre noise (cascade+)")
+    box_sigma: float = Field(0.03, ge=0, description="box-centre noise as a fraction of the box height (cascade+)")
 
     @model_validator(mode="after")
     def _window_fits(self) -> "Params":
@@ -108,12 +113,18 @@ class Scene(_Strict):
         "Default: the centre of the performance space"
     )
     planes: tuple[PlaneSpec, ...] = ()
+    auto_planes: bool = Field(False, description="``planes: auto`` in scene.yaml: the apparatus plane is fitted "
+                              "from the data before tracking (the preset's planes, if any, are the starting guess)")
     target: TargetSpec = TargetSpec()
     params: Params = Params()
 
     @model_validator(mode="before")
     @classmethod
     def _apply_preset(cls, data: Any) -> Any:
+        if isinstance(data, dict) and isinstance(data.get("planes"), str):
+            if data["planes"] != "auto":
+                raise ValueError(f"planes must be a list of planes or 'auto', got {data['planes']!r}")
+            data = {k: v for k, v in data.items() if k != "planes"} | {"auto_planes": True}
         if not isinstance(data, dict) or data.get("apparatus") is None:
             return data
         name = data["apparatus"]
@@ -166,6 +177,8 @@ class Scene(_Strict):
     def to_yaml_dict(self) -> dict:
         """The plain mapping ``scene.yaml`` holds (:func:`gymtrack.formats.scene.save_scene` writes it)."""
         d = self.model_dump(mode="json")
+        if d.pop("auto_planes"):
+            d["planes"] = "auto"
         return d
 
 

@@ -9,7 +9,7 @@ import pytest
 
 from gymtrack.errors import RoutineError
 from gymtrack.eval.benchmark import read_suite, run_suite, write_benchmark
-from gymtrack.eval.report import METHODS, pooled
+from gymtrack.eval.aggregate import METHODS, pooled
 
 
 @pytest.fixture(scope="module")

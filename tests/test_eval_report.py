@@ -1,4 +1,4 @@
-"""The report writer (gymtrack.eval.report) on a small fake results table worked out by hand."""
+"""The report (gymtrack.eval.aggregate and gymtrack.eval.render) on a small fake results table worked out by hand."""
 
 from __future__ import annotations
 
@@ -7,7 +7,8 @@ import json
 
 import pytest
 
-from gymtrack.eval.report import claims, pooled, ratios, table3, table5, table6, write_report
+from gymtrack.eval.aggregate import claims, pooled, ratios, table3, table5, table6
+from gymtrack.eval.render import write_report
 
 
 def row(app, n, method, fr, aed, idsw, frames=300, seconds=0.1, routine=None, error=""):

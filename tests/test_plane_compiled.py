@@ -1,9 +1,9 @@
 """The plane stage's compiled kernels (paper Section III-C, Eq. 5-9) against numpy references.
 
 The references are the vectorised numpy versions of :mod:`gymtrack.tracking.plane_fallback`
-that the kernels replaced (kept here, not in the package); the candidates are also checked
-against :func:`gymtrack.geometry.plane.intersect_rays_plane` and its status codes (PARALLEL,
-BEHIND). Inputs: people on and off the plane seen by a ring of cameras, false positives, NaN
+that the kernels replaced (``tests/reference/plane.py``, with the kernel's steps one at a time);
+the candidates are also checked against :func:`gymtrack.geometry.plane.intersect_rays_plane` and
+its status codes (PARALLEL, BEHIND). Inputs: people on and off the plane seen by a ring of cameras, false positives, NaN
 boxes, several planes (one behind some cameras, one containing a camera centre), and the
 edge cases (no segment, one segment, no plane).
 """
@@ -13,111 +13,19 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gymtrack.geometry.plane import Plane, RayPlaneStatus, intersect_rays_plane
-from gymtrack.tracking import INTERPOLATED, PLANE, _compiled
-from gymtrack.tracking.clustering import complete_linkage_sequential
-from gymtrack.tracking.plane_fallback import (best_plane_distance, candidate_distances, fuse_on_planes,
-                                              plane_candidates, plane_stage, ray_directions)
-from gymtrack.tracking.reconstruct import cluster_members, source_for
+from gymtrack.geometry.plane import Plane, RayPlaneStatus
+from gymtrack.tracking import INTERPOLATED, PLANE
+from gymtrack.tracking.plane_fallback import plane_stage
 from gymtrack.tracking.types import WindowTracklets, WindowTracklets3D
 from gymtrack.tracking.windows import fill_missing
+from reference.clustering import complete_linkage_sequential
+from reference.plane import (best_plane_distance, best_plane_distance_numpy, candidate_distances,
+                             candidate_distances_numpy, candidates, candidates_numpy, fuse_on_planes,
+                             fuse_on_planes_numpy, plane_candidates, plane_stage_numpy)
 from conftest import person_boxes, ring_rig, same
 
 W = 10
 THRESHOLD = 0.5
-
-
-# ============================================================ numpy references (the replaced code)
-def candidates_numpy(segs, rig, planes):
-    """(3, P, K, W, 3) centre / top / bottom candidates and (3, P, K, W) status codes, with the
-    geometry module's intersect_rays_plane (Eq. 7) on the rays of ray_directions (Eq. 5-6)."""
-    K = len(segs)
-    P = len(planes)
-    X = np.empty((3, P, K, W, 3))
-    status = np.empty((3, P, K, W), np.int8)
-    origins = rig.centres[segs.camera][:, None, :]
-    for q, which in enumerate(("centre", "top", "bottom")):
-        dirs = ray_directions(rig, segs.camera, segs.points(which))
-        for p, plane in enumerate(planes):
-            X[q, p], status[q, p] = intersect_rays_plane(origins, dirs, plane)
-    return X, status
-
-
-def candidate_distances_numpy(X, observed, camera, exists):
-    ok = observed[None] & exists
-    shared = ok[:, :, None] & ok[:, None, :]
-    diff = X[:, :, None] - X[:, None, :]
-    d = np.sqrt(np.einsum("pijtk,pijtk->pijt", diff, diff))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        D = np.where(shared, d, 0.0).sum(axis=-1) / shared.sum(axis=-1)
-    D[:, camera[:, None] == camera[None, :]] = np.inf
-    return D
-
-
-def best_plane_distance_numpy(Dp):
-    if Dp.shape[0] == 1:
-        return Dp[0].copy()
-    with np.errstate(all="ignore"):
-        known = ~np.isnan(Dp)
-        D = np.where(known, Dp, np.inf).min(axis=0)
-    D[~known.any(axis=0)] = np.nan
-    return D
-
-
-def fuse_on_planes_numpy(segs, cand, Dp, labels, n_cameras, single=None, exists=None):
-    members = cluster_members(labels, segs.camera, n_cameras)
-    count = (members >= 0).sum(axis=1)
-    keep = count >= 2
-    if single is not None:
-        keep |= (count == 1) & single[np.max(members, axis=1)]
-    members = members[keep]
-    M = len(members)
-    if M == 0:
-        return WindowTracklets3D.empty(segs.start, W, n_cameras)
-    has = members >= 0
-    idx = np.where(has, members, 0)
-    if Dp.shape[0] == 1:
-        plane = np.zeros(M, np.int64)
-    else:
-        pair = has[:, :, None] & has[:, None, :] & ~np.eye(n_cameras, dtype=bool)
-        d = Dp[:, idx[:, :, None], idx[:, None, :]]
-        use = pair[None] & np.isfinite(d)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            mean = np.where(use, d, 0.0).sum(axis=(2, 3)) / use.sum(axis=(2, 3))
-        mean[np.isnan(mean)] = np.inf
-        plane = np.argmin(mean, axis=0)
-    c = cand[:, plane[:, None], idx]
-    exists = np.all(np.isfinite(c), axis=-1) if exists is None else exists[:, plane[:, None], idx]
-    ok = has[None, :, :, None] & exists
-    with np.errstate(invalid="ignore", divide="ignore"):
-        fused = np.where(ok[..., None], c, 0.0).sum(axis=2) / ok.sum(axis=2)[..., None]
-    valid = ok[0].any(axis=1)
-    fused[:, ~valid] = np.nan
-    n_views = (segs.observed[idx] & has[..., None] & ok[0]).sum(axis=1).astype(np.int8)
-    return WindowTracklets3D(segs.start, fused[0], fused[1][..., 2], fused[2][..., 2], valid,
-                             source_for(n_views, PLANE), n_views, members, np.full(M, -1, np.int64))
-
-
-def plane_stage_numpy(segs, rig, planes, threshold, labels=None, apart=None, single=None):
-    K = len(segs)
-    C = len(rig)
-    any_single = single is not None and bool(single.any())
-    if (K < 2 and not any_single) or not planes:
-        return WindowTracklets3D.empty(segs.start, W, C)
-    cand, status = candidates_numpy(segs, rig, planes)
-    exists = status == RayPlaneStatus.OK
-    Dp = candidate_distances_numpy(cand[0], segs.observed, segs.camera, exists[0])
-    D = best_plane_distance_numpy(Dp)
-    if labels is not None:
-        D = np.where(labels[:, None] == labels[None, :], D, np.inf)
-    if apart is not None:
-        D = np.where(apart, np.inf, D)
-    with np.errstate(invalid="ignore"):
-        agree = bool(np.any(D < threshold))
-    if not agree and not any_single:
-        return WindowTracklets3D.empty(segs.start, W, C)
-    labels = complete_linkage_sequential(D, threshold) if agree else np.arange(K)
-    return fuse_on_planes_numpy(segs, cand, Dp, labels, C, single, exists)
 
 
 # ============================================================ inputs
@@ -183,13 +91,8 @@ def test_candidates_kernel_matches_intersect_rays_plane(seed):
     assert (status == RayPlaneStatus.PARALLEL).any()
     assert np.array_equal(np.isfinite(got).all(axis=-1), status == RayPlaneStatus.OK)
     same(plane_candidates(segs, RIG, PLANES, ("bottom", "centre")), X[[2, 0]])  # any subset, in order
-    _, ok = _compiled.plane_candidates(segs.box, segs.camera, *_rig_arrays(), 1e-3)
+    _, ok = candidates(segs, RIG, PLANES)
     assert np.array_equal(ok, status == RayPlaneStatus.OK)
-
-
-def _rig_arrays():
-    from gymtrack.tracking.plane_fallback import _back_projection, _plane_arrays
-    return (*_back_projection(RIG), *_plane_arrays(PLANES))
 
 
 def test_candidates_parallel_and_behind():

@@ -10,6 +10,7 @@ from typer.testing import CliRunner
 from gymtrack.cli import app
 from gymtrack.eval.pose_metrics import target_pose_error
 from gymtrack.formats.keypoints import read_keypoints, write_keypoints
+from gymtrack.formats.atomic import atomic_output
 from gymtrack.formats.outputs import write_outputs
 from gymtrack.formats.poses3d import read_poses_3d
 from gymtrack.pose.assign import STATUS_NAMES
@@ -92,7 +93,8 @@ def test_cli_pose_end_to_end(tracked, tmp_path):
     sim, res = tracked
     routine, out = tmp_path / "routine", tmp_path / "out"
     sim.write(routine)
-    write_outputs(res, out)
+    with atomic_output(out, "track") as staging:  # as `gymtrack track` writes it (with the output marker)
+        write_outputs(res, staging)
     poses = _model(sim, pose_model_boxes(res, all_tracks=True))
     poses.track_id[:] = -1
     write_keypoints(routine / "keypoints", poses)
@@ -112,7 +114,8 @@ def test_cli_pose_clear_errors(tracked, tmp_path):
     runner = CliRunner()
     r = runner.invoke(app, ["pose", str(routine), str(tmp_path / "nothing")])
     assert r.exit_code != 0 and "track output folder not found" in str(r.exception or r.output)
-    write_outputs(res, tmp_path / "out")
+    with atomic_output(tmp_path / "out", "track") as staging:
+        write_outputs(res, staging)
     r = runner.invoke(app, ["pose", str(routine), str(tmp_path / "out"), "--keypoints", str(tmp_path / "none")])
     assert r.exit_code != 0 and "no 2D keypoints" in str(r.exception or r.output)
     r = runner.invoke(app, ["pose", str(routine), str(tmp_path / "out"), "--lift", "magic"])
@@ -123,7 +126,8 @@ def test_cli_pose_simulated_model(tracked, tmp_path):
     sim, res = tracked
     routine, out = tmp_path / "routine", tmp_path / "out"
     sim.write(routine)
-    write_outputs(res, out)
+    with atomic_output(out, "track") as staging:
+        write_outputs(res, staging)
     r = CliRunner().invoke(app, ["pose", str(routine), str(out), "--simulated-model", "--lift", "dlt"])
     assert r.exit_code == 0, r.output
     p3 = read_poses_3d(out / "poses_3d.csv")

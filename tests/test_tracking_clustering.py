@@ -8,8 +8,9 @@ import pytest
 from conftest import ring_rig
 
 from gymtrack.geometry.epipolar import epipolar_distance, fundamental_matrices
-from gymtrack.tracking.clustering import complete_linkage, complete_linkage_sequential, tracklet_distances
+from gymtrack.tracking.clustering import complete_linkage, tracklet_distances
 from gymtrack.tracking.types import WindowTracklets
+from reference.clustering import complete_linkage_sequential
 
 INF, NAN = np.inf, np.nan
 

@@ -1,7 +1,6 @@
-"""The compiled kernels (gymtrack.tracking._compiled) against plain numpy / scipy references.
+"""The compiled kernels (gymtrack.tracking._kernels) against plain numpy / scipy references.
 
-The references are the vectorised numpy versions the kernels replaced (kept here verbatim, not
-in the package) and, where one exists, an independent formula (Eq. 1 per pair, the geometry
+The references are the vectorised numpy versions the kernels replaced (``tests/reference/``) and, where one exists, an independent formula (Eq. 1 per pair, the geometry
 module's triangulation). Random inputs plus edge cases: empty, one element, NaN / inf, ties.
 """
 
@@ -13,174 +12,21 @@ from scipy.optimize import linear_sum_assignment
 
 from conftest import points_seen_by, random_rig, same
 from gymtrack.geometry.epipolar import epipolar_distance, fundamental_matrices
+from gymtrack.geometry.primitives import triangulate_points
 from gymtrack.geometry.triangulation import triangulate_views as triangulate_views_numpy
-from gymtrack.tracking import _compiled
-from gymtrack.tracking.clustering import complete_linkage, complete_linkage_sequential, tracklet_distances
+from gymtrack.tracking._kernels import windows as window_kernels
+from gymtrack.tracking.clustering import complete_linkage, tracklet_distances
 from gymtrack.tracking.linking import link_distances
-from gymtrack.tracking.plane_fallback import candidate_distances
-from gymtrack.tracking.reconstruct import GN_ITERATIONS, cluster_members, outliers, triangulate_clusters
-from gymtrack.tracking.single_view import IoUTracker, assign, corners, iou_corners, iou_matrix
+from gymtrack.tracking.reconstruct import cluster_members, outliers, triangulate_clusters
+from gymtrack.tracking.single_view import IoUTracker, assign, iou_matrix
 from gymtrack.tracking.types import WindowTracklets
 from gymtrack.tracking.windows import fill_missing
-
-
-# ============================================================ numpy references (the replaced code)
-class IoUTrackerNumpy:
-    """The IoU tracker before compilation: full IoU matrix over all cameras, one assignment."""
-
-    def __init__(self, iou_threshold=0.1, max_age=2):
-        self.iou_threshold, self.max_age = iou_threshold, max_age
-        self.box, self.last, self.track_id, self.next_id = np.zeros((5, 0)), np.zeros(0, np.int64), np.zeros(0, np.int64), 0
-
-    def update(self, frame, camera, box):
-        if len(self.last) and self.last.min() < frame - self.max_age - 1:
-            alive = frame - self.last <= self.max_age + 1
-            self.box, self.last, self.track_id = self.box[:, alive], self.last[alive], self.track_id[alive]
-        n = len(camera)
-        cb = corners(box, camera)
-        ids = np.full(n, -1, np.int64)
-        if len(self.track_id) and n:
-            iou = iou_corners(self.box, cb)
-            r, c = assign(iou, iou >= self.iou_threshold)
-            ids[c] = self.track_id[r]
-            self.box[:, r] = cb[:, c]
-            self.last[r] = frame
-        new = np.flatnonzero(ids < 0)
-        if len(new):
-            new_ids = self.next_id + np.arange(len(new))
-            self.next_id += len(new)
-            ids[new] = new_ids
-            self.box = np.concatenate([self.box, cb[:, new]], axis=1)
-            self.last = np.concatenate([self.last, np.full(len(new), frame, np.int64)])
-            self.track_id = np.concatenate([self.track_id, new_ids])
-        return ids
-
-
-def complete_linkage_numpy(D, threshold):
-    """Algorithm 1 in vectorised reciprocal-nearest-neighbour rounds (the replaced numpy code)."""
-    S = np.array(D, dtype=np.float64)
-    K = S.shape[0]
-    owner = np.arange(K)
-    if K >= 2:
-        np.fill_diagonal(S, np.nan)
-        idx = np.arange(K)
-        while True:
-            W = np.fmin(S, np.inf)
-            nn = np.argmin(W, axis=1)
-            d = W[idx, nn]
-            I = np.flatnonzero((nn[nn] == idx) & (idx < nn) & (d < threshold))
-            if len(I) == 0:
-                if not d.min() < threshold:
-                    break
-                I = np.array([int(np.argmin(d))])
-            J = nn[I]
-            S[I] = np.fmax(S[I], S[J])
-            S[:, I] = np.fmax(S[:, I], S[:, J])
-            S[J] = np.nan
-            S[:, J] = np.nan
-            S[I, I] = np.nan
-            relabel = idx.copy()
-            relabel[J] = I
-            owner = relabel[owner]
-    first = np.full(K, K)
-    np.minimum.at(first, owner, np.arange(K))
-    is_first = first[owner] == np.arange(K)
-    return (np.cumsum(is_first) - 1)[first[owner]]
-
-
-def tracklet_distances_numpy(segs, F):
-    K, W = segs.observed.shape
-    cam = segs.camera
-    if K == 0:
-        return np.zeros((0, 0))
-    C = F.shape[0]
-    obs, box = segs.observed, segs.box
-    xh = np.empty((K, W, 3))
-    xh[..., :2] = box[..., :2]
-    xh[..., 2] = 1.0
-    xh[~obs] = 0.0
-    scale = np.abs(box[..., 2] + box[..., 3])
-    scale[~obs] = 1.0
-    xh /= scale[..., None]
-    lines = (F[cam].reshape(K, 3 * C, 3) @ xh.transpose(0, 2, 1)).reshape(K, C, 3, W)
-    norm = np.sqrt(lines[:, :, 0] ** 2 + lines[:, :, 1] ** 2)
-    norm[norm == 0] = 1.0
-    lines /= norm[:, :, None]
-    full = (xh.transpose(1, 0, 2) @ lines.transpose(3, 2, 1, 0).reshape(W, 3, C * K)).reshape(W, K, C, K)
-    S = np.abs(full[:, np.arange(K), cam, :]).sum(axis=0)
-    obsf = obs.astype(np.float64)
-    n = obsf @ obsf.T
-    with np.errstate(invalid="ignore", divide="ignore"):
-        D = (S + S.T) / n
-    D[n == 0] = np.nan
-    D[cam[:, None] == cam[None, :]] = np.inf
-    return D
-
-
-def outliers_numpy(xyz, valid, space, max_speed):
-    M, W = valid.shape
-    if M == 0:
-        return np.zeros(0, bool)
-    flat = xyz.reshape(M * W, 3)
-    pts = flat.T
-    inside = ((pts >= space[:3, None]) & (pts <= space[3:, None])).all(axis=0).reshape(M, W)
-    bad = (valid & ~inside).any(axis=1) | ~valid.any(axis=1)
-    t = np.arange(W)
-    prev = np.maximum.accumulate(np.where(valid, t, -1), axis=1)
-    later = np.flatnonzero(valid[:, 1:] & (prev[:, :-1] >= 0))
-    if len(later):
-        row = later // (W - 1)
-        tt = later - row * (W - 1) + 1
-        p = prev[row, tt - 1]
-        d = flat[row * W + tt] - flat[row * W + p]
-        bad[row[np.linalg.norm(d, axis=1) > max_speed * (tt - p)]] = True
-    return bad
-
-
-def link_distances_numpy(prev_xyz, prev_valid, new_xyz, new_valid, offset):
-    Wo = prev_xyz.shape[1] - offset
-    a, av = prev_xyz[:, offset:], prev_valid[:, offset:]
-    b, bv = new_xyz[:, :Wo], new_valid[:, :Wo]
-    both = av[:, None] & bv[None]
-    d = np.linalg.norm(a[:, None] - b[None], axis=-1)
-    n = both.sum(axis=-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        D = np.where(both, d, 0.0).sum(axis=-1) / n
-    D[n == 0] = np.nan
-    return D
-
-
-def candidate_distances_numpy(X, observed, camera, exists):
-    ok = observed[None] & exists
-    shared = ok[:, :, None] & ok[:, None, :]
-    diff = X[:, :, None] - X[:, None, :]
-    d = np.sqrt(np.einsum("pijtk,pijtk->pijt", diff, diff))
-    n = shared.sum(axis=-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        D = np.where(shared, d, 0.0).sum(axis=-1) / n
-    D[:, camera[:, None] == camera[None, :]] = np.inf
-    return D
-
-
-def triangulate_clusters_numpy(segs, members, P):
-    """(centre (M, W, 3), top_z, bottom_z, valid, n_views) as before compilation."""
-    M, C = members.shape
-    W = segs.width
-    has = members >= 0
-    b = segs.box[np.where(has, members, 0)].transpose(3, 1, 0, 2)
-    x, y, half = np.where(has.T[:, :, None], b[0], np.nan), b[1], b[3] / 2
-    u = np.empty((C, 3, M, W))
-    v = np.empty((C, 3, M, W))
-    u[:] = x[:, None]
-    v[:, 0] = y
-    v[:, 1] = y - half
-    v[:, 2] = y + half
-    X, _ = triangulate_views_numpy(P, u.reshape(C, -1), v.reshape(C, -1), iterations=GN_ITERATIONS)
-    X = X.reshape(3, 3, M, W)
-    centre = X[:, 0].transpose(1, 2, 0)
-    valid = np.isfinite(centre).all(axis=2)
-    obs = segs.observed[np.where(has, members, 0)] & has[..., None]
-    return centre, X[2, 1], X[2, 2], valid, obs.sum(axis=1).astype(np.int8)
+from reference.clustering import complete_linkage_numpy, complete_linkage_sequential, tracklet_distances_numpy
+from reference.linking import link_distances_numpy
+from reference.plane import candidate_distances, candidate_distances_numpy
+from reference.reconstruct import outliers_numpy, triangulate_clusters_numpy
+from reference.single_view import IoUTrackerNumpy
+from reference.windows import fill_missing as fill_missing_numpy
 
 
 # ============================================================ helpers
@@ -243,8 +89,8 @@ def test_fill_missing_kernel_is_exact(rng, K):
     if K:
         observed[np.arange(K), rng.integers(0, W, K)] = True
     for max_ext in (0, 2, 20):
-        a, av = fill_missing(box, observed, max_ext)
-        b, bv = _compiled.fill_missing(box, observed, max_ext)
+        a, av = fill_missing_numpy(box, observed, max_ext)
+        b, bv = window_kernels.fill_missing(box, observed, max_ext)
         assert np.array_equal(av, bv)
         assert np.array_equal(a, b, equal_nan=True)
 
@@ -310,12 +156,12 @@ def test_triangulation_kernel(rng, iterations):
     mask[0, 3:6] = True  # (and exactly one view for the next three)
     mask[1:, 3:6] = False
     u[~mask & (rng.random((4, 200)) < 0.5)] = np.nan  # masked views may hold NaN
-    Xk, ek = _compiled.triangulate_views(P, u, v, mask, iterations)
+    Xk, ek = triangulate_points(P, u, v, mask, iterations)
     Xr, er = triangulate_views_numpy(P, u, v, mask, iterations)
     assert np.all(np.isnan(Xk[:, :6]))
     same(Xk, Xr, rtol=1e-7, atol=1e-7)
     same(ek, er, rtol=1e-6, atol=1e-7)
-    Xe, _ = _compiled.triangulate_views(P, np.zeros((4, 0)), np.zeros((4, 0)), np.zeros((4, 0), bool), 1)
+    Xe, _ = triangulate_points(P, np.zeros((4, 0)), np.zeros((4, 0)), np.zeros((4, 0), bool), 1)
     assert Xe.shape == (3, 0)
 
 

@@ -159,7 +159,7 @@ def test_a_broken_2d_track_continues_the_3d_track_while_its_view_is_alone():
 
 
 def test_member_is_isin():
-    from gymtrack.tracking.tracker import member
+    from gymtrack.tracking.linking import member
 
     rng = np.random.default_rng(0)
     for n, m in ((0, 0), (0, 3), (4, 0), (1, 1), (30, 20), (400, 300)):

@@ -12,10 +12,11 @@ import pytest
 from conftest import ring_rig
 
 from gymtrack.detections import Detections
+from gymtrack.tracking.identify import TargetBackfill, TargetSelector, backfill, identify_indicator
+from gymtrack.tracking.smoothing import TargetSmoother
 from gymtrack.tracking.target import (
-    BODY_HALF_DEPTH, MIN_HALF_LENGTH, MIN_LENGTH_COS, TargetBackfill, TargetSelector, TargetSmoother, backfill,
-    buffered_boxes, identify_indicator, track_box_sizes)
-from gymtrack.tracking.types import INTERPOLATED, TRIANGULATION
+    BODY_HALF_DEPTH, MIN_HALF_LENGTH, MIN_LENGTH_COS, buffered_boxes, track_box_sizes)
+from gymtrack.tracking.types import INTERPOLATED, TRIANGULATION, TargetRows
 
 
 def run_selector(sel, frames, rows, ended):
@@ -24,7 +25,8 @@ def run_selector(sel, frames, rows, ended):
     for f in frames:
         r = rows.get(f, [])
         tid = np.array([x[0] for x in r], np.int64)
-        out.append(sel.step(f, tid, np.array([x[1] for x in r], bool), np.array([x[2] for x in r], bool), ended))
+        ind, inperf = np.array([x[1] for x in r], bool), np.array([x[2] for x in r], bool)
+        out.append(sel.select(f, f, np.full(len(tid), f, np.int64), tid, ind, inperf, ended)[0])
     return np.array(out)
 
 
@@ -68,8 +70,17 @@ def test_identify_indicator():
     assert inperf.tolist() == [True, True, True, False]
 
 
-def _point(f, xyz, tid=1):
-    return (f, tid, np.asarray(xyz, float), 2.2, 0.8, TRIANGULATION, np.full((2, 2), np.nan))
+def _points(frames, xyz, tid=1):
+    """Target rows at ``frames`` (n,) with centres ``xyz`` (n, 3), two views without detections."""
+    n = len(frames)
+    return TargetRows.of(frames, np.full(n, tid), np.reshape(xyz, (n, 3)), np.full(n, 2.2), np.full(n, 0.8),
+                         np.full(n, TRIANGULATION), np.full((n, 2, 2), np.nan))
+
+
+def _emitted(parts):
+    """The rows the smoother emitted (None: nothing) as one TargetRows."""
+    parts = [p for p in parts if p is not None]
+    return TargetRows.concat(parts) if parts else _points([], np.zeros((0, 3)))
 
 
 def test_smoother_fills_short_gaps_keeps_long_ones_and_preserves_lines():
@@ -77,15 +88,28 @@ def test_smoother_fills_short_gaps_keeps_long_ones_and_preserves_lines():
     out = []
     frames = list(range(0, 10)) + list(range(13, 20)) + list(range(30, 40))  # gaps of 3 and 10 frames
     for f in frames:
-        out += sm.push(_point(f, [0.1 * f, 2.0 - 0.05 * f, 1.0]))
-        out += sm.advance(f)
-    out += sm.close()
-    got = np.array([o[0] for o in out])
+        out += [sm.push(_points([f], [0.1 * f, 2.0 - 0.05 * f, 1.0])), sm.advance(f)]
+    out = _emitted(out + [sm.close()])
+    got = out.frame
     np.testing.assert_array_equal(got, list(range(0, 20)) + list(range(30, 40)))
-    src = np.array([o[5] for o in out])
+    src = out.source
     assert np.all(src[[10, 11, 12]] == INTERPOLATED) and np.all(np.delete(src, [10, 11, 12]) == TRIANGULATION)
-    xyz = np.stack([o[2] for o in out])
-    np.testing.assert_allclose(xyz, np.stack([0.1 * got, 2.0 - 0.05 * got, np.ones(len(got))], axis=1), atol=1e-12)
+    assert np.isnan(out.wh[[10, 11, 12]]).all() and np.allclose(out.top_z, 2.2)  # heights interpolated too
+    np.testing.assert_allclose(out.xyz, np.stack([0.1 * got, 2.0 - 0.05 * got, np.ones(len(got))], axis=1),
+                               atol=1e-12)
+
+
+def test_smoother_pushed_at_once_equals_point_by_point():
+    rng = np.random.default_rng(3)
+    frames = np.sort(rng.choice(np.arange(200), 150, replace=False))  # gaps short and long
+    xyz = rng.normal(0, 1, (150, 3))
+    one = TargetSmoother(max_gap=7)
+    by_point = _emitted([one.push(_points([f], xyz[k])) for k, f in enumerate(frames)] + [one.close()])
+    whole = TargetSmoother(max_gap=7)
+    at_once = _emitted([whole.push(_points(frames, xyz)), whole.close()])
+    np.testing.assert_array_equal(at_once.frame, by_point.frame)
+    np.testing.assert_allclose(at_once.xyz, by_point.xyz, rtol=0, atol=1e-12)
+    assert len(np.setdiff1d(at_once.frame, frames)) > 0  # some gaps were filled
 
 
 def test_smoother_reduces_noise_and_is_exact_on_a_parabola():
@@ -95,11 +119,8 @@ def test_smoother_reduces_noise_and_is_exact_on_a_parabola():
     for noise, check in ((0.0, "exact"), (0.02, "less")):
         sm = TargetSmoother(max_gap=7)
         noisy = truth + rng.normal(0, noise, truth.shape)
-        out = []
-        for i in f:
-            out += sm.push(_point(int(i), noisy[i]))
-        out += sm.close()
-        xyz = np.stack([o[2] for o in out])
+        out = [sm.push(_points([int(i)], noisy[i])) for i in f]
+        xyz = _emitted(out + [sm.close()]).xyz
         if check == "exact":
             np.testing.assert_allclose(xyz, truth, atol=1e-12)  # quadratic Savitzky-Golay keeps parabolas
         else:
@@ -108,7 +129,7 @@ def test_smoother_reduces_noise_and_is_exact_on_a_parabola():
 
 def test_smoother_latency_is_half_window():
     sm = TargetSmoother(max_gap=7, half_window=2)
-    emitted = [len(sm.push(_point(f, [0, 0, 1.0]))) for f in range(10)]
+    emitted = [len(_emitted([sm.push(_points([f], [0, 0, 1.0]))])) for f in range(10)]
     assert emitted == [0, 0, 1, 1, 1, 1, 1, 1, 1, 1]
 
 
@@ -277,13 +298,13 @@ def test_target_backfill_streaming_equals_offline():
     for b in cuts:  # uneven chunks of final frames, released 30 frames late
         m = (frame >= a) & (frame < b)
         n = int(m.sum())
-        buf.push(a, decision[a:b], (frame[m], tid[m], np.zeros((n, 3)), np.zeros(n), np.zeros(n), np.zeros(n),
-                                    np.full((n, 2, 2), np.nan)))
+        buf.push(a, decision[a:b], TargetRows.of(frame[m], tid[m], np.zeros((n, 3)), np.zeros(n), np.zeros(n),
+                                                 np.zeros(n), np.full((n, 2, 2), np.nan)))
         out = buf.pop(b - 1 - 30)
-        got += [] if out is None else list(zip(out[0].tolist(), out[1].tolist()))
+        got += [] if out is None else list(zip(out.frame.tolist(), out.track_id.tolist()))
         a = b
     out = buf.pop()
-    got += [] if out is None else list(zip(out[0].tolist(), out[1].tolist()))
+    got += [] if out is None else list(zip(out.frame.tolist(), out.track_id.tolist()))
     expected = [(f, t) for f, t in zip(frame.tolist(), tid.tolist()) if offline[f] == t]
     assert got == expected
     assert len(buf) == 0

@@ -81,7 +81,7 @@ def test_memory_stays_bounded_on_a_long_stream():
         sizes.append(trk.state_size())
     trk.finish()
     sizes = np.array(sizes)
-    assert trk._next_track_id > 30  # many tracks came and went
+    assert trk.linker.next_track_id > 30  # many tracks came and went
     assert sizes[1000:].max() <= 1.5 * sizes[200:700].max()  # no growth with stream length
     assert sizes.max() < 3000
 

@@ -38,15 +38,10 @@ def _need_dask():
 
 
 def warm_numba() -> None:
-    """Compile or load every tracker kernel once in this process (the public warm-up when there is one)."""
-    from .. import tracking
+    """Compile or load every tracker kernel once in this process (:func:`gymtrack.tracking.warm_up`)."""
+    from ..tracking import warm_up
 
-    fn = getattr(tracking, "warm_up", None)
-    if fn is None:  # until the kernels refactor's public tracking.warm_up lands
-        from ..tracking import _compiled
-
-        fn = _compiled.warm_up
-    fn()
+    warm_up()
 
 
 def numba_cache_dir() -> str:

@@ -5,25 +5,23 @@ III-D, the metrics of IV-A) over many routine folders. A routine folder is one h
 ``scene.yaml`` (``shared/formats.md``); its outputs go to ``<out>/<routine path relative to the
 input>/``.
 
-Completeness: an output folder is complete when it holds the marker file :data:`MARKER` (the
-atomic-output marker of the hardening work, ``.gymtrack-output.json``) whose ``inputs`` name the
-steps and mode asked for. :func:`output_complete` and :func:`write_marker` are the only places that
-know the marker, so they can be swapped for :mod:`gymtrack.formats.atomic`'s helpers.
+Completeness: an output folder is complete when it holds the atomic-output marker
+(:data:`gymtrack.formats.atomic.MARKER`, written last by
+:func:`~gymtrack.formats.atomic.atomic_output`) of a batch run whose ``inputs`` name the steps and
+mode asked for (:func:`output_complete`).
 """
 
 from __future__ import annotations
 
-import datetime as _dt
-import json
 import os
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import InputError
+from ..formats.atomic import MARKER, read_marker
 
-#: The marker file of a complete gymtrack output folder (the same name and keys as
-#: ``gymtrack.formats.atomic.MARKER``).
-MARKER = ".gymtrack-output.json"
+__all__ = ["MARKER", "STEPS", "BatchRoutine", "parse_steps", "find_routines", "output_complete", "marker_inputs"]
+
 #: The steps a batch can run, in the order they run.
 STEPS: tuple[str, ...] = ("track", "pose", "eval")
 
@@ -91,41 +89,17 @@ def find_routines(source: str | Path) -> list[BatchRoutine]:
 
 
 # ----------------------------------------------------------------------------- completeness
-def read_marker(folder: str | Path) -> dict | None:
-    """The marker of ``folder`` as a dict, or None when absent or unreadable."""
-    try:
-        data = json.loads((Path(folder) / MARKER).read_text())
-    except (OSError, ValueError):
-        return None
-    return data if isinstance(data, dict) and data.get("gymtrack_output") else None
-
-
 def output_complete(folder: str | Path, steps: tuple[str, ...], mode: str) -> bool:
-    """True when ``folder`` holds a complete output of at least ``steps`` in ``mode`` (nothing to redo)."""
+    """True when ``folder`` holds a complete output of at least ``steps`` in ``mode`` (nothing to redo):
+    the atomic-output marker of a batch run with those inputs."""
     m = read_marker(folder)
-    if m is None:
+    if m is None or m.get("command") != "batch":
         return False
     inputs = m.get("inputs") or {}
     done = set(str(inputs.get("steps", "")).split(","))
     return set(steps) <= done and inputs.get("mode") == mode
 
 
-def write_marker(folder: str | Path, steps: tuple[str, ...], mode: str, routine: str) -> Path:
-    """Write the marker last into a finished staging folder (temp file + rename)."""
-    import hashlib
-    from importlib.metadata import PackageNotFoundError, version
-
-    try:
-        ver = version("gymtrack")
-    except PackageNotFoundError:  # a source checkout
-        ver = "unknown"
-    folder = Path(folder)
-    files = {p.relative_to(folder).as_posix(): hashlib.sha256(p.read_bytes()).hexdigest()
-             for p in sorted(folder.rglob("*")) if p.is_file() and p.name != MARKER}
-    data = {"gymtrack_output": 1, "command": "batch", "version": ver,
-            "created": _dt.datetime.now(_dt.timezone.utc).replace(microsecond=0).isoformat().replace("+00:00", "Z"),
-            "inputs": {"routine": routine, "steps": ",".join(steps), "mode": mode}, "files": files, "updates": []}
-    tmp = folder / (MARKER + f".tmp-{os.getpid()}")
-    tmp.write_text(json.dumps(data, indent=2) + "\n")
-    os.replace(tmp, folder / MARKER)
-    return folder / MARKER
+def marker_inputs(routine: str, steps: tuple[str, ...], mode: str) -> dict:
+    """What a batch records in the marker (read back by :func:`output_complete`)."""
+    return {"routine": routine, "steps": ",".join(steps), "mode": mode}

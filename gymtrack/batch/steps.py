@@ -7,9 +7,10 @@ stage, :func:`gymtrack.pose.stage.lift_poses`) and IV-A (the metrics,
 files the previous step wrote, so a batch gives the files and numbers of running the commands
 one routine at a time.
 
-The outputs are written into a staging folder beside ``<out>/<routine>`` and take its place,
-with the completeness marker (:func:`.routines.write_marker`) written last, only when every step
-succeeded: a failed or killed routine leaves the previous outputs (or none), never a mix.
+The outputs are written through :func:`gymtrack.formats.atomic.atomic_output`: into a staging
+folder beside ``<out>/<routine>`` that takes its place, with the completeness marker written
+last, only when every step succeeded -- a failed or killed routine leaves the previous outputs
+(or none), never a mix.
 
 :func:`process_routine` never raises for a routine's own problem (bad file, exception in a
 step): it returns a row with ``status`` ``"failed"`` and the error. A worker killed mid-run
@@ -24,10 +25,11 @@ import os
 import shutil
 import time
 import traceback
-import uuid
 from pathlib import Path
 
-from .routines import MARKER, BatchRoutine, output_complete, write_marker
+from ..errors import InputError
+from ..formats.atomic import MARKER, atomic_output
+from .routines import BatchRoutine, marker_inputs, output_complete
 
 #: batch.csv's columns before the metrics.
 BASE_COLUMNS: tuple[str, ...] = ("routine", "status", "error", "frames", "seconds")
@@ -70,17 +72,6 @@ def remove_staging(dest: Path) -> None:
     """Remove the staging folders of the routine whose outputs go to ``dest`` (left by a killed worker)."""
     for p in dest.parent.glob(f".{dest.name}{_TMP_TAG}*"):
         shutil.rmtree(p, ignore_errors=True)
-
-
-def _swap_in(staging: Path, dest: Path) -> None:
-    """Put the finished ``staging`` at ``dest`` (the previous outputs are removed after)."""
-    old = None
-    if dest.exists():
-        old = dest.with_name(f".{dest.name}{_TMP_TAG}{os.getpid()}-old")
-        os.rename(dest, old)
-    os.rename(staging, dest)
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
 
 
 def _previous_row(dest: Path) -> dict:
@@ -149,32 +140,21 @@ def process_routine(routine: BatchRoutine, out_root: str, steps: tuple[str, ...]
         return {**base, **{k: prev.get(k) for k in ("frames", *METRIC_COLUMNS) if k in prev}, "status": "skipped",
                 "seconds": 0.0}
     t0 = time.perf_counter()
-    staging = None
     try:
-        dest.parent.mkdir(parents=True, exist_ok=True)
-        remove_staging(dest)
-        staging = dest.parent / f".{dest.name}{_TMP_TAG}{os.getpid()}-{uuid.uuid4().hex[:8]}"
-        staging.mkdir()  # (not mkdtemp: its 0700 would become the output folder's mode)
         prev = {}
         if "track" not in steps:
             if not (dest / "target_3d.csv").is_file():
-                from ..errors import InputError
-
                 raise InputError("no track outputs to start from: run the 'track' step first", source=dest)
             prev = _previous_row(dest)
-            shutil.rmtree(staging)
-            shutil.copytree(dest, staging, ignore=shutil.ignore_patterns(MARKER))
-        info = run_steps(routine, staging, steps, mode, mot, fault)
-        row = {**base, "frames": info.get("frames", prev.get("frames", 0)), **info.get("metrics", {}),
-               "seconds": round(time.perf_counter() - t0, 3)}
-        saved = {**row, "steps": list(steps), "mode": mode, **{k: info[k] for k in ("pose", "note") if k in info}}
-        (staging / ROW_FILE).write_text(json.dumps(saved, indent=1) + "\n")
-        write_marker(staging, steps, mode, routine.name)
-        _swap_in(staging, dest)
-        staging = None
+        with atomic_output(dest, "batch", marker_inputs(routine.name, steps, mode), overwrite=force,
+                           protect=[routine.path]) as staging:
+            if "track" not in steps:  # the later steps add to a copy of the earlier outputs
+                shutil.copytree(dest, staging, ignore=shutil.ignore_patterns(MARKER), dirs_exist_ok=True)
+            info = run_steps(routine, staging, steps, mode, mot, fault)
+            row = {**base, "frames": info.get("frames", prev.get("frames", 0)), **info.get("metrics", {}),
+                   "seconds": round(time.perf_counter() - t0, 3)}
+            saved = {**row, "steps": list(steps), "mode": mode, **{k: info[k] for k in ("pose", "note") if k in info}}
+            (staging / ROW_FILE).write_text(json.dumps(saved, indent=1) + "\n")
         return row
     except Exception as exc:  # one routine's failure is its row, never the batch's
         return {**base, "status": "failed", "error": error_text(exc), "seconds": round(time.perf_counter() - t0, 3)}
-    finally:
-        if staging is not None:
-            shutil.rmtree(staging, ignore_errors=True)

@@ -10,6 +10,9 @@ routines as ``gymtrack simulate-suite --per-apparatus 4 --seconds 25``: 7 appara
 performances x n_cam 2, 3, 4 = 84 routine folders, apparatus simulated in parallel -- unless
 ``<out>/suite/suite.json`` already exists, and benchmarks that. ``--per-apparatus 20 --seconds 0``
 gives the paper's 140 performances (each seen with n_cam = 2, 3 and 4) at the simulator's lengths.
+
+``--check``: exit status 1 when a target of :func:`gymtrack.eval.aggregate.claims` fails or a
+run fails (for CI); without it the status is 0 whatever the results.
 """
 
 from __future__ import annotations
@@ -39,8 +42,8 @@ def _methods(text: str) -> list[str]:
     return out
 
 
-def print_summary(rows: list[dict]) -> None:
-    """Table 5 and the targets, with rich."""
+def print_summary(rows: list[dict]) -> list:
+    """Table 5 and the targets, with rich; returns the claims (:func:`gymtrack.eval.aggregate.claims`)."""
     from gymtrack.eval.aggregate import claims, table5
     from gymtrack.eval.render import fmt
 
@@ -59,10 +62,12 @@ def print_summary(rows: list[dict]) -> None:
     for col in ("target", "value", "result", "detail"):
         tab.add_column(col)
     colour = {"PASS": "green", "FAIL": "red"}
-    for c in claims(rows):
+    found = claims(rows)
+    for c in found:
         tab.add_row(c.name, fmt(c.value, "ratio") if abs(c.value) < 100 else fmt(c.value, "fps"),
                     f"[{colour.get(c.status, 'yellow')}]{c.status}[/]", c.detail)
     console.print(tab)
+    return found
 
 
 @app.command()
@@ -80,6 +85,7 @@ def benchmark(
     no_mot: bool = typer.Option(False, "--no-mot", help="skip the all-people MOT metrics (faster)"),
     no_pose: bool = typer.Option(False, "--no-pose", help="skip the target's 3D pose (Fig. 7 table, lifting ablation)"),
     mvor: Optional[Path] = typer.Option(None, "--mvor", help="MVOR folder for the real-keypoints pose section (default: $GYMTRACK_MVOR or shared/data/mvor above the project; skipped with a note if absent)"),
+    check: bool = typer.Option(False, "--check", help="exit with status 1 when a target (claim) fails or a run fails"),
 ) -> None:
     """Benchmark the tracker's modes, the MvPT-like baseline and the GT-association oracle (paper Tables 3, 5, 6)."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
@@ -136,13 +142,22 @@ def benchmark(
         if not mv.get("available"):
             console.print(f"[yellow]{mv['note']}[/]")
     files = write_benchmark(run, out, meta={"suite": str(suite), "methods": ", ".join(method_list)}, wildtrack=wt, mvor=mv)
-    print_summary(run.rows)
+    found = print_summary(run.rows)
     if not no_pose:
         from gymtrack.cli.pose import print_pose_claims
 
-        print_pose_claims(console, run.rows)
+        found = found + print_pose_claims(console, run.rows)
     failed = [r for r in run.rows if r.get("error")]
     if failed:
         console.print(f"[red]{len(failed)} runs failed[/] (listed in the report), e.g. {failed[0]['routine']} / "
                       f"{failed[0]['method']}: {failed[0]['error']}")
     console.print(f"report: [bold]{files['report']}[/] ({run.seconds:.0f} s)")
+    if check:
+        bad = [c.name for c in found if c.status == "FAIL"]
+        if bad or failed:
+            what = [f"{len(bad)} target(s) failed ({'; '.join(bad)})"] if bad else []
+            what += [f"{len(failed)} run(s) failed"] if failed else []
+            console.print(f"[red]--check failed:[/] {', '.join(what)}", highlight=False)
+            raise typer.Exit(1)
+        console.print(f"[green]--check passed:[/] {sum(c.status == 'PASS' for c in found)} targets met "
+                      f"({sum(c.status == 'n/a' for c in found)} n/a)", highlight=False)

@@ -18,6 +18,7 @@ from rich.console import Console
 from rich.table import Table
 
 from gymtrack.cli import app
+from gymtrack.cli.options import calibration_format_option, units_option
 
 console = Console()
 
@@ -68,10 +69,8 @@ def eval_cmd(
     out: Path = typer.Argument(..., help="output folder written by `gymtrack track --out`"),
     as_json: bool = typer.Option(False, "--json", help="print the scores as JSON instead of a table"),
     mot: bool = typer.Option(True, "--mot/--no-mot", help="also score all people (MOTA, IDF1; the slowest part)"),
-    calibration_format: Optional[str] = typer.Option(
-        None, "--calibration-format", help="native | anipose | easymocap | panoptic | wildtrack (default: from the file name)"
-    ),
-    units: Optional[str] = typer.Option(None, "--units", help="units of an aniposelib / EasyMocap calibration: m | cm | mm"),
+    calibration_format: Optional[str] = calibration_format_option(),
+    units: Optional[str] = units_option(),
 ) -> None:
     """Score an output folder against the routine's ground truth (target and all people)."""
     from gymtrack.eval.score import score_output

@@ -4,6 +4,9 @@ Paper: summarises the inputs of Section III: the calibrated views (``P_c``, III-
 view pairs whose line-of-sight angle makes triangulation ill-conditioned and calls for the
 ray-plane intersection (III-C), the per-view boxes (III-A) and the domain knowledge of the scene
 (performance space, buffer, planes, identification heights ``h_top`` / ``h_bot``, parameters).
+It also reports the stream checks of :mod:`gymtrack.formats.checks` (cameras that go silent,
+gaps, share of boxes outside the image) as warnings (``--strict``: exit 3 on any).
+``gymtrack info --system``: versions, numba cache, CPUs (:mod:`gymtrack.cli.system`).
 """
 
 from __future__ import annotations
@@ -17,7 +20,10 @@ from rich.console import Console
 from rich.table import Table
 
 from gymtrack.cli import app
-from gymtrack.formats.routine import Routine, load_routine
+from gymtrack.cli.options import calibration_format_option, read_routine, silent_seconds_option, strict_option, units_option
+from gymtrack.cli.report import REPORTER
+from gymtrack.formats.checks import StreamChecks
+from gymtrack.formats.routine import Routine
 from gymtrack.scene import Scene
 from gymtrack.geometry.camera import Rig
 
@@ -74,17 +80,23 @@ def opposite_table(rig: Rig, scene: Scene) -> Table:
     return t
 
 
-def detections_table(routine: Routine) -> Table:
-    """Per camera: boxes, frames, frame range, out-of-order lines, frame-0 lines, skipped lines."""
+def detections_table(routine: Routine, checks: StreamChecks | None = None) -> Table:
+    """Per camera: boxes, frames, frame range, out-of-order lines, frame-0 lines, skipped lines;
+    with ``checks``: frames silent (longer than the threshold), share of boxes outside the image."""
     t = Table(title=f"Detections ({len(routine.detections)} boxes)", title_justify="left")
     t.add_column("camera", no_wrap=True)
-    for col in ("boxes", "frames", "frame range", "unsorted", "frame 0"):
+    cols = ("boxes", "frames", "frame range", "unsorted", "frame 0") + (("silent frames", "outside image (wholly / partly)") if checks else ())
+    for col in cols:
         t.add_column(col, justify="right")
     t.add_column("skipped")
     for r in routine.reports:
         rng = f"{r.frame_range[0]}..{r.frame_range[1]}" if r.frame_range else "-"
         skipped = ", ".join(f"{k}: {v}" for k, v in r.skipped.items()) or "-"
-        t.add_row(r.camera, str(r.boxes), str(r.frames), rng, str(r.unsorted_lines), str(r.frame_zero_lines), skipped)
+        extra = ()
+        if checks:
+            silent = sum(s.frames for s in checks.silences if s.camera == r.camera)
+            extra = (str(silent), f"{checks.outside[r.camera]:.1%} / {checks.partly_outside[r.camera]:.1%}")
+        t.add_row(r.camera, str(r.boxes), str(r.frames), rng, str(r.unsorted_lines), str(r.frame_zero_lines), *extra, skipped)
     return t
 
 
@@ -109,8 +121,8 @@ def scene_table(scene: Scene) -> Table:
     return t
 
 
-def print_routine_info(routine: Routine, console: Console | None = None) -> None:
-    """Print every table of ``gymtrack info`` for a loaded routine."""
+def print_routine_info(routine: Routine, console: Console | None = None, checks: StreamChecks | None = None) -> None:
+    """Print every table of ``gymtrack info`` for a loaded routine (and its stream checks)."""
     console = console or Console()
     rep = routine.calibration_report
     console.print(f"[bold]Routine[/] {routine.path}")
@@ -121,7 +133,12 @@ def print_routine_info(routine: Routine, console: Console | None = None) -> None
         console.print(f"  note: {note}", highlight=False)
     console.print(cameras_table(routine.rig))
     console.print(opposite_table(routine.rig, routine.scene))
-    console.print(detections_table(routine))
+    console.print(detections_table(routine, checks))
+    if checks and checks.frame_range:
+        lo, hi = checks.frame_range
+        console.print(f"frames with detections: {checks.frames_with_data} of the range {lo}..{hi}; "
+                      f"{len(checks.gaps)} gap(s) with no camera, {len(checks.silences)} silent stretch(es) of single cameras",
+                      highlight=False)
     if routine.ignored:
         console.print(f"ignored in detections/ (not .txt): {', '.join(p.name for p in routine.ignored)}", highlight=False)
     console.print(scene_table(routine.scene))
@@ -134,13 +151,30 @@ def print_routine_info(routine: Routine, console: Console | None = None) -> None
 
 @app.command()
 def info(
-    routine: Path = typer.Argument(..., help="routine folder (cameras.yaml, scene.yaml, detections/<camera>.txt)"),
-    calibration_format: Optional[str] = typer.Option(
-        None, "--calibration-format", help="native | anipose | easymocap | panoptic | wildtrack (default: from the file name)"
-    ),
-    units: Optional[str] = typer.Option(None, "--units", help="units of an aniposelib / EasyMocap calibration: m | cm | mm"),
+    routine: Optional[Path] = typer.Argument(None, help="routine folder (cameras.yaml, scene.yaml, detections/<camera>.txt)"),
+    calibration_format: Optional[str] = calibration_format_option(),
+    units: Optional[str] = units_option(),
+    silent_seconds: float = silent_seconds_option(),
+    strict: bool = strict_option(),
+    system: bool = typer.Option(False, "--system", help="print versions, the numba cache and CPUs (for a bug report)"),
 ) -> None:
     """Validate a routine folder and show its cameras, opposite pairs, detections and scene."""
-    opts = {} if units is None else {"units": units}
-    r = load_routine(routine, calibration_format, **opts)
-    print_routine_info(r)
+    from gymtrack.errors import InputError
+
+    console = Console()
+    if system:
+        from gymtrack.cli.system import system_rows
+
+        t = Table(title="System", title_justify="left", show_header=False)
+        t.add_column("what", style="bold")
+        t.add_column("value", overflow="fold")  # whole paths: the table goes into bug reports
+        for k, v in system_rows():
+            t.add_row(k, v)
+        console.print(t)
+        if routine is None:
+            return
+    if routine is None:
+        raise InputError("give a routine folder (gymtrack info <routine>), or --system", field="ROUTINE")
+    r, checks = read_routine(routine, calibration_format, units, silent_seconds)
+    print_routine_info(r, console, checks)
+    REPORTER.check_strict(strict)

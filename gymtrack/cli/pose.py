@@ -22,6 +22,8 @@ from rich.console import Console
 from rich.table import Table
 
 from gymtrack.cli import app
+from gymtrack.cli.options import calibration_format_option, read_routine, units_option
+from gymtrack.cli.report import interrupts
 
 console = Console()
 
@@ -55,12 +57,14 @@ def pose(
     all_tracks: bool = typer.Option(False, "--all-tracks", help="lift every 3D track, not only the target"),
     lift: str = typer.Option("robust", "--lift", help="dlt | robust"),
     seed: int = typer.Option(0, "--seed", help="seed of the simulated pose model"),
+    calibration_format: Optional[str] = calibration_format_option(),
+    units: Optional[str] = units_option(),
 ) -> None:
     """Lift 2D keypoints in the tracker's boxes to the target's 3D pose (every track's with --all-tracks)."""
     from gymtrack.errors import InputError
     from gymtrack.formats.keypoints import write_keypoints
     from gymtrack.formats.poses3d import write_poses_3d
-    from gymtrack.formats.routine import load_routine
+    from gymtrack.formats.atomic import atomic_update
     from gymtrack.pose.sources import routine_poses
     from gymtrack.pose.stage import LIFT_METHODS, lift_poses, read_track_result
 
@@ -68,14 +72,17 @@ def pose(
         raise InputError(f"unknown lifting method {lift!r}; choose one of {', '.join(LIFT_METHODS)}", field="--lift")
     if simulated_model and keypoints is not None:
         raise InputError("give either --keypoints or --simulated-model, not both", field="--keypoints")
-    r = load_routine(routine)
+    r, _ = read_routine(routine, calibration_format, units)
     result = read_track_result(out, r.rig.names)
     with console.status("running the simulated pose model on the boxes" if simulated_model else "reading the 2D poses"):
         poses = routine_poses(r, result, keypoints, simulated_model, all_tracks, seed)
     with console.status(f"lifting ({lift})"):
         res = lift_poses(result, r.rig, r.scene, poses, all_tracks=all_tracks, method=lift)
-    write_keypoints(Path(out) / "keypoints", res.poses2d)
-    write_poses_3d(Path(out) / "poses_3d.csv", res.poses3d)
+    inputs = {"routine": str(routine), "lift": lift, "all_tracks": all_tracks,
+              "keypoints": "simulated model" if simulated_model else str(keypoints or Path(routine) / "keypoints")}
+    with interrupts(), atomic_update(out, "pose", inputs) as staging:  # all or nothing, into the track output
+        write_keypoints(staging / "keypoints", res.poses2d)
+        write_poses_3d(staging / "poses_3d.csv", res.poses3d)
     console.print(pose_summary_table(res.summary()))
     console.print(f"wrote [bold]{Path(out) / 'keypoints'}[/] and [bold]{Path(out) / 'poses_3d.csv'}[/]")
 
@@ -105,15 +112,17 @@ def demo_pose_table(sim, results: dict, perf_frames: np.ndarray, seed: int = 0) 
     return t
 
 
-def print_pose_claims(con: Console, rows: list[dict]) -> None:
-    """The benchmark's pose targets (PASS / FAIL) as a rich table."""
+def print_pose_claims(con: Console, rows: list[dict]) -> list:
+    """The benchmark's pose targets (PASS / FAIL) as a rich table; returns the claims."""
     from gymtrack.eval.pose_bench import pose_claims
 
     tab = Table(title="Pose targets (MPJPE averaged over apparatus)", title_justify="left")
     for col in ("target", "value", "result", "detail"):
         tab.add_column(col)
     colour = {"PASS": "green", "FAIL": "red"}
-    for c in pose_claims(rows):
+    found = pose_claims(rows)
+    for c in found:
         tab.add_row(c.name, "-" if not np.isfinite(c.value) else f"{c.value:.2f}",
                     f"[{colour.get(c.status, 'yellow')}]{c.status}[/]", c.detail)
     con.print(tab)
+    return found

@@ -1,8 +1,13 @@
 """``gymtrack track`` and ``gymtrack demo``: run the tracker of Section III.
 
 * ``gymtrack track <routine> --out <out> [--mode cascade|triangulation|plane]`` reads a routine
-  folder, tracks it with a progress bar, writes the outputs of ``shared/formats.md``
-  (:func:`gymtrack.formats.outputs.write_outputs`) and prints a short summary.
+  folder (with the calibration options of ``info``: ``--units``, ``--calibration-format``),
+  tracks it with a progress bar, writes the outputs of ``shared/formats.md``
+  (:func:`gymtrack.formats.outputs.write_outputs`) atomically (:mod:`gymtrack.formats.atomic`:
+  a complete new folder or the previous one untouched; ``--overwrite`` for a non-empty folder
+  that is not a gymtrack output) and prints a short summary. Silent cameras, gaps, boxes outside
+  the image and a run without tracks or target are warnings; ``--strict`` makes them exit 3
+  with nothing written. Ctrl-C: one line, exit 130.
 * ``gymtrack demo [--out DIR] [--seconds S]`` simulates a difficult routine (uneven bars seen by
   two opposite cameras), tracks it with the cascade and with triangulation only, and prints the
   target's mean 3D error (AED) against the ground truth for both, and the error of the target's
@@ -21,6 +26,9 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from gymtrack.cli import app
+from gymtrack.cli.options import (calibration_format_option, overwrite_option, read_routine, silent_seconds_option,
+                                  strict_option, units_option)
+from gymtrack.cli.report import REPORTER, interrupts
 from gymtrack.tracking.tracker import MODES
 
 console = Console()
@@ -47,31 +55,66 @@ def summary_table(summary: dict, title: str = "Tracking summary") -> Table:
     return t
 
 
+def checks_line(checks) -> str:
+    """One line of the stream checks (:class:`gymtrack.formats.checks.StreamChecks`)."""
+    outside = ", ".join(f"{c} {checks.outside[c]:.1%}/{checks.partly_outside[c]:.1%}" for c in checks.outside)
+    return (f"input: {checks.frames_with_data} frames with detections; {len(checks.silences)} silent stretch(es), "
+            f"{len(checks.gaps)} gap(s); boxes outside the image (wholly/partly): {outside}")
+
+
+def empty_result_warnings(summary: dict) -> list[str]:
+    """Warnings for a run that found no 3D tracks or no target, with the usual reasons."""
+    why = ("check the calibration's units (--units mm|cm for a file in millimetres or centimetres), that its "
+           "world frame is the scene's (metres, z up, origin on the floor under the apparatus) and scene.yaml's "
+           "performance_space")
+    if summary.get("tracks", 0) == 0:
+        return [f"no 3D tracks: nothing was tracked inside the scene's tracking space; {why}"]
+    if summary.get("target_frames", 0) == 0:
+        return [f"no target frames: no track stayed in the performance space at the target's heights; {why}, "
+                "and the target heights h_top / h_bot"]
+    return []
+
+
 @app.command()
 def track(
     routine: Path = typer.Argument(..., help="routine folder (cameras.yaml, scene.yaml, detections/)"),
-    out: Path = typer.Option(..., "--out", "-o", help="output folder"),
+    out: Path = typer.Option(..., "--out", "-o", help="output folder (replaced whole, atomically, when the run completes)"),
     mode: str = typer.Option("cascade", "--mode", "-m", help="cascade | triangulation | plane"),
+    calibration_format: Optional[str] = calibration_format_option(),
+    units: Optional[str] = units_option(),
+    overwrite: bool = overwrite_option(),
+    strict: bool = strict_option(),
+    silent_seconds: float = silent_seconds_option(),
 ) -> None:
     """Track a routine: 3D tracks, per-view boxes and the target gymnast (paper Section III)."""
+    from gymtrack.cli.system import compile_notice
     from gymtrack.errors import InputError
+    from gymtrack.formats.atomic import atomic_output
     from gymtrack.formats.outputs import write_outputs
-    from gymtrack.formats.routine import load_routine
     from gymtrack.tracking.tracker import track_detections
 
     if mode not in MODES:
         raise InputError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}", field="--mode")
-    r = load_routine(routine)
-    with Progress(TextColumn("[bold]tracking"), BarColumn(), MofNCompleteColumn(), TextColumn("frames"),
-                  TimeRemainingColumn(), console=console, transient=True) as bar:
-        task = bar.add_task("track", total=None)
+    inputs = {"routine": Path(routine).absolute(), "mode": mode, "calibration_format": calibration_format, "units": units}
+    with interrupts(), atomic_output(out, "track", inputs, overwrite=overwrite, protect=[routine]) as staging:
+        r, checks = read_routine(routine, calibration_format, units, silent_seconds)
+        notice = compile_notice()
+        if notice:
+            console.print(notice, highlight=False)
+        with Progress(TextColumn("[bold]tracking"), BarColumn(), MofNCompleteColumn(), TextColumn("frames"),
+                      TimeRemainingColumn(), console=console, transient=True) as bar:
+            task = bar.add_task("track", total=None)
 
-        def progress(done: int, total: int) -> None:
-            bar.update(task, completed=done, total=total)
+            def progress(done: int, total: int) -> None:
+                bar.update(task, completed=done, total=total)
 
-        result = track_detections(r.rig, r.scene, r.detections, mode=mode, progress=progress)
-    write_outputs(result, out)
+            result = track_detections(r.rig, r.scene, r.detections, mode=mode, progress=progress)
+        for msg in empty_result_warnings(result.summary):
+            REPORTER.warn(msg)
+        REPORTER.check_strict(strict)
+        write_outputs(result, staging)
     console.print(summary_table(result.summary))
+    console.print(checks_line(checks), highlight=False)
     console.print(f"outputs written to [bold]{out}[/]")
 
 
@@ -93,25 +136,38 @@ def demo(
 ) -> None:
     """Simulate uneven bars seen by two opposite cameras; compare the cascade with triangulation."""
     from gymtrack.eval.metrics import average_euclidean_distance, coverage
+    from gymtrack.formats.atomic import atomic_output
     from gymtrack.formats.outputs import write_outputs
     from gymtrack.simulate import simulate_routine
     from gymtrack.tracking.tracker import track_detections
 
+    if out is not None:  # fail on a bad --out before the work
+        from gymtrack.formats.atomic import check_output_folder
+
+        for sub in ("routine", "cascade", "triangulation"):
+            check_output_folder(Path(out) / sub)
     with console.status(f"simulating {seconds:g} s of uneven bars, two opposite cameras (seed {seed})"):
         sim = simulate_routine("uneven_bars", n_cam=2, seed=seed, seconds=seconds)
     if out is not None:
-        sim.write(Path(out) / "routine")
+        with interrupts(), atomic_output(Path(out) / "routine", "demo") as staging:
+            sim.write(staging)
     gt = sim.target_centre
     ok = np.all(np.isfinite(gt), axis=1)
     perf = sim.frames[sim.performing & ok]
     plane = sim.scene.planes[0]
     off = np.abs((gt[sim.performing & ok] - np.array(plane.point)) @ np.array(plane.normal))
+    from gymtrack.cli.system import compile_notice
+
+    notice = compile_notice()
+    if notice:
+        console.print(notice, highlight=False)
     results = {}
     for mode in ("cascade", "triangulation"):
         with console.status(f"tracking with {mode}"):
             results[mode] = track_detections(sim.rig, sim.scene, sim.detections, mode=mode)
         if out is not None:
-            write_outputs(results[mode], Path(out) / mode)
+            with interrupts(), atomic_output(Path(out) / mode, "demo") as staging:
+                write_outputs(results[mode], staging)
     both = np.intersect1d(np.intersect1d(results["cascade"].target.frame, results["triangulation"].target.frame), perf)
     t = Table(title="Target gymnast vs ground truth (performing frames)", title_justify="left")
     for col in ("mode", "AED", "AED where both found it", "coverage", "switches", "frames/s"):

@@ -6,7 +6,7 @@
 * :mod:`.mvpt`       the frame-by-frame MvPT-like baseline
 * :mod:`.benchmark`  every method on every routine of a suite, in parallel processes
 * :mod:`.aggregate`  Tables 3, 5, 6 and the claims from the benchmark's rows
-* :mod:`.render`     report.md / CSV / JSON, Fig. 6 plots (:mod:`.report` re-exports both)
+* :mod:`.render`     report.md / CSV / JSON, Fig. 6 plots
 * :mod:`.config`     the claims' thresholds and the data paths
 * :mod:`.score`      an output folder of ``gymtrack track`` scored against ``<routine>/gt/`` (``gymtrack eval``)
 * :mod:`.wildtrack`  the real-data section on WILDTRACK

@@ -157,9 +157,9 @@ def run_routine(spec: RoutineSpec, methods: Sequence[str], keep_trajectories: bo
         t = gt.target()
         traj["GT"] = (t.frame, t.xyz)
         traj["fps"] = float(r.scene.fps)
-    from ..tracking import _compiled
+    from ..tracking import warm_up
 
-    _compiled.warm_up()  # numba's compile/cache load: once per process, never tracking time
+    warm_up()  # numba's compile/cache load: once per process, never tracking time
     # the first method on a new rig pays its one-off costs (caches, memory): rotate the order per
     # routine so that no method is always first; rows keep the order of ``methods``
     k = zlib.crc32(spec.name.encode()) % max(len(methods), 1)

@@ -16,9 +16,10 @@ What it is, per frame:
 3. frame-to-frame 3D linking: a linear assignment (``scipy``'s ``linear_sum_assignment``)
    between the tracks seen in the last ``max_age`` frames and the frame's points, gated at
    ``link_gate`` metres (0.6, the paper's cross-window gate); unmatched points start new ids;
-4. the tracker's own target stage: Eq. 13 identification (:class:`TargetSelector`) with the
-   tracker's back-fill (:func:`backfill`), gap filling and smoothing (:class:`TargetSmoother`)
-   and the Eq. 14 expanded boxes (:func:`buffered_boxes`).
+4. the tracker's own target stage (:class:`gymtrack.tracking.target.TargetStage`), fed online
+   (in runs of frames between track ends; a track ends ``max_age`` frames after its last point):
+   Eq. 13 identification, the tracker's back-fill, gap filling and smoothing and the Eq. 14
+   expanded boxes.
 
 What it is not: no keypoints (MvPT matches full-body keypoints), no appearance / Re-ID, no 2D
 tracklets or temporal windows (every frame is associated on its own), no plane fallback. It
@@ -39,9 +40,7 @@ from ..geometry.camera import Rig
 from ..geometry.epipolar import epipolar_distance, fundamental_matrices
 from ..geometry.triangulation import triangulate
 from ..tracking.clustering import complete_linkage
-from ..geometry.plane import Plane
-from ..tracking.target import (TargetSelector, TargetSmoother, backfill, concat_rows, identify_indicator,
-                               target_and_boxes, track_box_sizes)
+from ..tracking.target import TargetStage
 from ..tracking.types import TRIANGULATION, Target, Tracks3D, TrackResult
 
 __all__ = ["undistort_boxes", "associate_frame", "associate", "link_frames", "select_target", "track_mvpt"]
@@ -148,43 +147,32 @@ def select_target(rig: Rig, scene: Scene, tracks: Tracks3D, boxes: Detections, m
     A track counts as ended ``max_age`` frames after its last point (as it would online).
     Returns (target, its expanded boxes ``b_buf``, the number of target switches).
     """
-    p = scene.params
-    perf = np.asarray(scene.performance_space, dtype=np.float64)
     if len(tracks) == 0:
         return Target.empty(), Detections.empty(rig.names), 0
-    ind, inperf = identify_indicator(tracks.xyz, tracks.top_z, tracks.bottom_z, perf, scene.target.h_top, scene.target.h_bot)
-    selector = TargetSelector(p.identify_frames)
+    stage = TargetStage(rig, scene)
     ids, last_idx = np.unique(tracks.track_id[::-1], return_index=True)
     last = tracks.frame[::-1][last_idx]  # last frame of each track
     end_order = np.argsort(last + max_age, kind="stable")
     ends, end_ids = (last + max_age)[end_order], ids[end_order]
     f0, f1 = int(tracks.frame.min()), int(tracks.frame.max())
-    bounds = np.searchsorted(tracks.frame, np.arange(f0, f1 + 2))
-    decision = np.full(f1 - f0 + 1, -1, np.int64)
+    # online, in runs of frames between two track ends (the selector decides a run frame by frame)
+    starts = np.unique(np.r_[f0, np.clip(ends + 1, f0, f1 + 1)])
+    starts = starts[starts <= f1]
+    stops = np.r_[starts[1:], f1 + 1]  # exclusive
+    bounds, box_bounds = np.searchsorted(tracks.frame, starts), np.searchsorted(boxes.frame, starts)
+    bounds, box_bounds = np.r_[bounds, len(tracks)], np.r_[box_bounds, len(boxes)]
     ended: dict[int, int] = {}
+    out = []
     k = 0
-    for f in range(f0, f1 + 1):  # Eq. 13 online, frame by frame
-        while k < len(ends) and ends[k] < f:
+    for i, (a, b) in enumerate(zip(starts.tolist(), stops.tolist())):
+        while k < len(ends) and ends[k] < a:
             ended[int(end_ids[k])] = int(ends[k] - max_age)
             k += 1
-        i0, i1 = bounds[f - f0], bounds[f - f0 + 1]
-        decision[f - f0] = selector.step(f, tracks.track_id[i0:i1], ind[i0:i1], inperf[i0:i1], ended)
-        horizon = f - p.identify_frames
-        for t in [t for t, v in ended.items() if v < horizon and t != selector.target]:
-            del ended[t]
-    # the same back-fill as the tracker's (offline: all frames held at once)
-    backfill(decision, tracks.frame - f0, tracks.track_id, p.backfill_frames)
-    mine = np.flatnonzero(tracks.track_id == decision[tracks.frame - f0])
-    if len(mine) == 0:
-        return Target.empty(), Detections.empty(rig.names), selector.switches
-    wh = track_box_sizes(tracks, boxes, len(rig))
-    smoother = TargetSmoother(p.max_gap)
-    rows = [smoother.push_rows(tracks.frame[mine], tracks.track_id[mine], tracks.xyz[mine], tracks.top_z[mine],
-                               tracks.bottom_z[mine], tracks.source[mine], wh[mine]), smoother.close_rows()]
-    rows = concat_rows([r for r in rows if r is not None])
-    planes = [Plane.from_spec(s) for s in scene.planes]
-    target, boxes_buf = target_and_boxes(rig, rows, p.box_scale, {}, planes)
-    return target, boxes_buf, selector.switches
+        out.append(stage.update(a, b - 1, tracks.select(slice(bounds[i], bounds[i + 1])),
+                                boxes.select(slice(box_bounds[i], box_bounds[i + 1])), ended))
+    out.append(stage.finish())
+    target, boxes_buf = Target.concat([t for t, _ in out]), Detections.concat([b for _, b in out])
+    return target, boxes_buf, stage.switches
 
 
 def track_mvpt(

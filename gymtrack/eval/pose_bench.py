@@ -12,7 +12,7 @@ with ``robust`` without the plane anchoring (:data:`LIFTS`): the ablation.
 
 Rows: :func:`pose_columns` adds the additive parts of the metrics to a method's benchmark row as
 ``pose_<lift>_<part>`` columns (parts: :data:`PARTS`), so that pooling routines is exact, like
-the tracking metrics of :mod:`gymtrack.eval.report`. :func:`pose_tables` pools them per
+the tracking metrics of :mod:`gymtrack.eval.aggregate`. :func:`pose_tables` pools them per
 (apparatus, n_cam, method, lift) and averages over apparatus; :func:`pose_claims` checks the
 issue's targets; :func:`pose_markdown` writes the report section. The pose model's seed is the
 routine's, the same for every method, so the methods differ by their boxes only.

@@ -36,7 +36,7 @@ import numpy as np
 from ..errors import InputError
 from ..poses import Poses2D
 from ..skeletons import BODY25, SKELETONS, Skeleton, custom_skeleton, get_skeleton
-from .textfile import read_text
+from .textfile import read_text, what_is
 
 OPENPOSE_NAME = re.compile(r"_(\d{12})_keypoints\.json$")
 _BY_COUNT = {len(s.joints): s for s in SKELETONS.values()}
@@ -150,7 +150,7 @@ def _read_native(doc: dict, path: Path, camera_index: int, camera_names: Sequenc
     J = len(sk.joints)
     poses = doc.get("poses")
     if not isinstance(poses, list):
-        raise InputError(f"must be a list of poses, got {type(poses).__name__}", source=path, field="poses")
+        raise InputError(f"must be a list of poses, got {what_is(poses)}", source=path, field="poses")
     rows = _Rows()
     for i, p in enumerate(poses):
         f = f"poses[{i}]"

@@ -5,6 +5,9 @@
 * :mod:`.triangulation`  DLT + reprojection-error refinement (Eq. 3)
 * :mod:`.plane`          ``Plane`` and ray-plane intersection (Eq. 7)
 * :mod:`.views`          line-of-sight angles and opposite camera pairs
+* :mod:`.primitives`     the scalar equations (Eq. 1, 3, 6, 7, projection) compiled with numba, shared
+                         by the public functions above and the tracker's kernels
+* :mod:`.arrays`         ``RigArrays`` (``Rig.arrays``) and ``PlaneArrays``: the groups the kernels take
 """
 
 from .camera import Camera, Rig

@@ -14,6 +14,7 @@ iterative inverse, is delegated to OpenCV.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Iterable, Iterator, Sequence
 
 import cv2
@@ -21,6 +22,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..errors import CalibrationError
+from .arrays import RigArrays
 
 _ROTATION_TOL = 1e-5
 
@@ -290,6 +292,11 @@ class Rig(Sequence[Camera]):
     def projections(self) -> np.ndarray:
         """(C, 3, 4) projection matrices of the undistorted images."""
         return np.stack([c.P for c in self._cameras])
+
+    @cached_property
+    def arrays(self) -> RigArrays:
+        """The calibration as contiguous arrays for compiled kernels, built once per rig."""
+        return RigArrays.from_cameras(self._cameras)
 
     def subset(self, names: Sequence[str]) -> "Rig":
         return Rig(self[n] for n in names)

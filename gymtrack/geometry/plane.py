@@ -9,6 +9,9 @@ Two cases have no sensible answer and are reported rather than returned as a wro
 the ray (nearly) parallel to the plane (``n . v`` ~ 0: the intersection is at infinity or
 anywhere) and the plane behind the camera (the ray parameter is negative: the "intersection"
 lies behind the camera, where nothing it sees can be).
+
+The arithmetic is :func:`gymtrack.geometry.primitives.ray_plane`, the code the tracker's plane
+kernel runs: Eq. 7 is written once.
 """
 
 from __future__ import annotations
@@ -17,6 +20,8 @@ from dataclasses import dataclass
 from enum import IntEnum
 
 import numpy as np
+
+from .primitives import rays_plane
 
 
 class RayPlaneStatus(IntEnum):
@@ -81,17 +86,8 @@ def intersect_rays_plane(
     X: (..., 3) intersection points; NaN where the status is not OK.
     status: (...) int8 :class:`RayPlaneStatus` codes.
     """
-    o = np.asarray(origins, dtype=np.float64)
-    d = np.asarray(directions, dtype=np.float64)
-    o, d = np.broadcast_arrays(o, d)
-    dn = d @ plane.normal
-    dlen = np.linalg.norm(d, axis=-1)
-    # written negated so that zero-length and NaN directions count as parallel (no intersection)
-    parallel = ~(np.abs(dn) >= min_cos * dlen) | ~(dlen > 0)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # (denormal directions overflow)
-        lam = ((plane.point - o) @ plane.normal) / dn
-        X = o + lam[..., None] * d  # inf * 0 for exactly parallel rays: masked below
-    behind = ~parallel & ~(lam > 0)
-    status = np.where(parallel, RayPlaneStatus.PARALLEL, np.where(behind, RayPlaneStatus.BEHIND, RayPlaneStatus.OK)).astype(np.int8)
-    X[status != RayPlaneStatus.OK] = np.nan
-    return X, status
+    o, d = np.broadcast_arrays(np.asarray(origins, dtype=np.float64), np.asarray(directions, dtype=np.float64))
+    shape = o.shape[:-1]
+    c = np.ascontiguousarray
+    X, status = rays_plane(c(o.reshape(-1, 3)), c(d.reshape(-1, 3)), plane.point, plane.normal, float(min_cos))
+    return X.reshape(shape + (3,)), status.reshape(shape)

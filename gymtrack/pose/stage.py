@@ -31,7 +31,7 @@ import numpy as np
 
 from ..detections import Detections
 from ..errors import InputError
-from ..formats.scene import Scene
+from ..scene import Scene
 from ..geometry.camera import Rig
 from ..poses import HOW_NAMES, HOW_NONE, Poses2D, Poses3D
 from ..tracking.types import Target, Tracks3D, TrackResult

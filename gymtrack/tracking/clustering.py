@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _compiled
+from ._kernels import clustering as kernels
 from .types import WindowTracklets
 
 
@@ -49,49 +49,13 @@ def complete_linkage(D: np.ndarray, threshold: float) -> np.ndarray:
     every pair of reciprocal nearest neighbours merges eventually, independently of the
     others: each round merges all such pairs below the threshold at once (Murtagh's
     reciprocal-nearest-neighbour scheme). The clusters are those of the one-merge-at-a-time
-    loop (:func:`complete_linkage_sequential`, kept as the literal reference; ties aside) in a
+    loop (``complete_linkage_sequential`` in ``tests/reference/clustering.py``, the literal
+    reference; ties aside) in a
     handful of rounds instead of one round per merge. The rounds are compiled
-    (:func:`._compiled.complete_linkage`): a window's K is a few tens, where numpy's per-call
+    (:func:`._kernels.clustering.complete_linkage`): a window's K is a few tens, where numpy's per-call
     overhead would dominate.
     """
-    return _compiled.complete_linkage(np.ascontiguousarray(D, dtype=np.float64), float(threshold))
-
-
-def _number_by_first_member(owner: np.ndarray) -> np.ndarray:
-    """(K,) cluster representatives (any member index) -> labels 0..n-1 in order of each
-    cluster's first member (table lookups: cheaper than np.unique and two argsorts)."""
-    K = len(owner)
-    idx = np.arange(K)
-    first = np.full(K, K)
-    np.minimum.at(first, owner, idx)  # first member of each representative's cluster
-    is_first = first[owner] == idx
-    return (np.cumsum(is_first) - 1)[first[owner]]
-
-
-def complete_linkage_sequential(D: np.ndarray, threshold: float, merges: list | None = None) -> np.ndarray:
-    """Algorithm 1 literally, one merge per step (the closest pair, ties: first in row-major
-    order). Same inputs and labels as :func:`complete_linkage`; slower, kept as the reference.
-
-    merges: if a list is given, each merge is appended as ``(i, j, distance)``: the clusters are
-    named by their smallest original member (``j`` joins ``i``)."""
-    S = np.array(D, dtype=np.float64)
-    K = S.shape[0]
-    owner = np.arange(K)
-    if K >= 2:
-        np.fill_diagonal(S, np.nan)
-        while True:
-            W = np.where(np.isnan(S), np.inf, S)
-            i, j = divmod(int(np.argmin(W)), K)
-            if not W[i, j] < threshold:
-                break
-            if merges is not None:
-                merges.append((int(i), int(j), float(W[i, j])))
-            merged = np.fmax(S[i], S[j])
-            S[i], S[:, i] = merged, merged
-            S[j], S[:, j] = np.nan, np.nan
-            S[i, i] = np.nan
-            owner[owner == j] = i
-    return _number_by_first_member(owner)
+    return kernels.complete_linkage(np.ascontiguousarray(D, dtype=np.float64), float(threshold))
 
 
 def tracklet_distances(segs: WindowTracklets, F: np.ndarray) -> np.ndarray:
@@ -112,11 +76,12 @@ def tracklet_distances(segs: WindowTracklets, F: np.ndarray) -> np.ndarray:
     Cost: the epipolar line of every observed centre in every other view is computed once
     ((K, C, W) lines, :func:`gymtrack.geometry.epipolar.epipolar_lines`' convention), then each
     pair of segments of different views sums its point-line distances over the shared frames;
-    both loops are compiled (:func:`._compiled.tracklet_distances`). The result equals
+    both loops are compiled (:func:`._kernels.clustering.tracklet_distances`, on the Eq. 1
+    primitives of :mod:`gymtrack.geometry.primitives`). The result equals
     :func:`gymtrack.geometry.epipolar.epipolar_distance` averaged over the shared frames.
     """
     if len(segs) == 0:
         return np.zeros((0, 0))
-    return _compiled.tracklet_distances(np.ascontiguousarray(segs.camera, dtype=np.int64),
-                                        np.ascontiguousarray(segs.box, dtype=np.float64),
-                                        np.ascontiguousarray(segs.observed), np.ascontiguousarray(F, dtype=np.float64))
+    return kernels.tracklet_distances(np.ascontiguousarray(segs.camera, dtype=np.int64),
+                                      np.ascontiguousarray(segs.box, dtype=np.float64),
+                                      np.ascontiguousarray(segs.observed), np.ascontiguousarray(F, dtype=np.float64))

@@ -16,6 +16,12 @@ stays *lost* for ``relink_frames`` frames; an unlinked new tracklet whose first 
 within ``link_3d`` of the lost track's constant-velocity prediction continues it (again a
 linear assignment, :func:`relink_distances` + :func:`link`). ``relink_frames = 0`` is the
 paper's behaviour.
+
+:class:`WindowLinker` applies this to a stream of windows and owns its state: the previous
+window's linked tracklets and the 2D tracks they were made of, the live tracks' last frames,
+the lost tracks (may still be re-linked) and the ended ones (for the target stage, Eq. 13).
+Beyond the paper, a cascade here too: candidates of several views link first; one-view plane
+tracklets only to what is left, and only to continue a track (never to start one).
 """
 
 from __future__ import annotations
@@ -23,8 +29,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from . import _compiled
-from .types import Tracks3D
+from ._kernels import linking as kernels
+from .types import Tracks3D, WindowTracklets3D
 
 
 def link_distances(
@@ -41,8 +47,8 @@ def link_distances(
     later (the step). Returns (Mp, Mn) metres; NaN where the pair shares no valid frame.
     """
     c = np.ascontiguousarray
-    return _compiled.link_distances(c(prev_xyz, dtype=np.float64), c(prev_valid), c(new_xyz, dtype=np.float64),
-                                    c(new_valid), int(offset))  # pairs x frames: a compiled loop
+    return kernels.link_distances(c(prev_xyz, dtype=np.float64), c(prev_valid), c(new_xyz, dtype=np.float64),
+                                  c(new_valid), int(offset))  # pairs x frames: a compiled loop
 
 
 def link(D: np.ndarray, gate: float) -> tuple[np.ndarray, np.ndarray]:
@@ -167,3 +173,133 @@ def merge_overlaps(
         frame[start], track_id[start], np.add.reduceat(xyz, start) / count[:, None], mean(top_z), mean(bottom_z),
         np.minimum.reduceat(source, start).astype(np.int8), np.maximum.reduceat(n_views, start).astype(np.int8),
     )
+
+
+def member(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.isin(a, b)`` for the small id arrays of one window ((n,), (m,) -> (n,) bool): one
+    broadcast comparison, ~10 x cheaper than ``np.isin``'s general path at these sizes."""
+    if a.size * b.size > 65536:
+        return np.isin(a, b)
+    return (a[:, None] == b[None, :]).any(axis=1) if b.size else np.zeros(a.shape, bool)
+
+
+class WindowLinker:
+    """Cross-window linking of a stream of windows (Eq. 10-11, re-linking, the two-pass cascade).
+
+    window_step: frames between window starts; link_3d: the gate, metres; relink_frames: how
+    long a lost track may be re-linked (0: the paper); max_speed: metres per frame, clips a lost
+    track's velocity; counts: counter dict the links are counted in (``links``, ``relinks``,
+    ``plane_single_view``, ``plane_single_view_unlinked``).
+
+    Use: ``linked = linker.step(tracklets, track2d, solo)`` once per window, in order.
+    State: the previous window's tracklets (M, W), and one entry per live, lost or ended track
+    (ended ones until the target stage forgets them).
+    """
+
+    def __init__(self, window_step: int, link_3d: float, relink_frames: int, max_speed: float, counts: dict):
+        self.window_step, self.link_3d = int(window_step), float(link_3d)
+        self.relink_frames, self.max_speed = int(relink_frames), max_speed
+        self.counts = counts
+        self.prev: WindowTracklets3D | None = None  # the previous window's linked tracklets
+        self.next_track_id = 0
+        self.track_last: dict[int, int] = {}  # live track -> last valid frame
+        self.ended: dict[int, int] = {}  # ended track -> last frame (the target stage forgets them)
+        # lost tracks (not continued, may still be re-linked): id -> (last frame, last xyz, velocity)
+        self.lost: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
+        # 2D track ids that were members of the previous window's 3D tracklets (single-view continuation)
+        self.prev_2d = np.zeros(0, np.int64)
+        self.prev_seen = np.zeros(0, np.int64)  # 2D tracks of the previous window's segments
+
+    def __len__(self) -> int:
+        """Stored items: the previous window's (tracklet, frame) cells and the tracks' entries."""
+        n = 0 if self.prev is None else self.prev.valid.size
+        return n + len(self.track_last) + len(self.lost) + len(self.ended)
+
+    @property
+    def idle(self) -> bool:
+        """No tracklet of the previous window to link to."""
+        return self.prev is None or len(self.prev) == 0
+
+    def break_chain(self) -> None:
+        """The next window does not follow on the last one (a pause jumped over)."""
+        self.prev = None
+
+    def may_continue_alone(self, track2d: np.ndarray) -> np.ndarray:
+        """(n,) bool: the 2D tracks (n,) that may continue a 3D track on the plane from one view:
+        members of the previous window's 3D tracklets, or new in this window (a view's track broke)."""
+        return member(track2d, self.prev_2d) | ~member(track2d, self.prev_seen)
+
+    def step(self, cur: WindowTracklets3D, track2d: np.ndarray, solo: np.ndarray) -> WindowTracklets3D:
+        """Link one window's 3D tracklets to the tracks.
+
+        cur: (M, W) the window's tracklets (``members`` index ``track2d``); track2d: (K,) the 2D
+        track ids of the window's segments; solo: (M,) bool, one-view plane tracklets (they may
+        only continue a track). Returns the linked tracklets, ``track_id`` set (new ids for the
+        unlinked), unlinked one-view tracklets removed.
+        """
+        ids = self._link(cur, solo)
+        new = ids < 0
+        if solo.any():
+            drop = solo & new
+            self.counts["plane_single_view"] += int(np.count_nonzero(solo & ~new))
+            self.counts["plane_single_view_unlinked"] += int(np.count_nonzero(drop))
+            if drop.any():
+                cur, ids, new = cur.subset(~drop), ids[~drop], new[~drop]
+        ids[new] = self.next_track_id + np.arange(int(new.sum()))
+        self.next_track_id += int(new.sum())
+        cur = cur.with_track_id(ids)
+        self.prev_2d = track2d[cur.members[cur.members >= 0]]
+        self.prev_seen = track2d
+        self._end_tracks(cur)
+        self.prev = cur
+        return cur
+
+    def _link(self, cur: WindowTracklets3D, solo: np.ndarray) -> np.ndarray:
+        """(M,) the track each tracklet continues (-1: none): the two passes, each linking to the
+        previous window (Eq. 10-11), then re-linking lost tracks."""
+        start = cur.start
+        ids = np.full(len(cur), -1, np.int64)
+        prev = self.prev
+        chained = prev is not None and len(prev) > 0 and prev.start == start - self.window_step
+        # a cascade here too: candidates of several views link first, one-view ones only to what is left
+        for k, group in enumerate((~solo, solo) if solo.any() else (None,)):
+            cols = np.flatnonzero(ids < 0) if group is None else np.flatnonzero(group & (ids < 0))
+            # the first pass may link any previous tracklet, the second only those still free
+            free = (np.flatnonzero(~member(prev.track_id, ids)) if k else np.arange(len(prev))) if chained else []
+            if len(cols) and len(free):
+                r, c = link(link_distances(prev.xyz[free], prev.valid[free], cur.xyz[cols], cur.valid[cols],
+                                           self.window_step), self.link_3d)
+                ids[cols[c]] = prev.track_id[free[r]]
+                self.counts["links"] += len(r)
+                cols = cols[ids[cols] < 0]
+            if self.lost and len(cols) and self.relink_frames > 0:  # beyond the paper: bridge short gaps
+                self._relink(cur, cols, ids)
+        return ids
+
+    def _relink(self, cur: WindowTracklets3D, cols: np.ndarray, ids: np.ndarray) -> None:
+        """Lost tracks continued by the tracklets ``cols`` (written into ``ids``)."""
+        lost_ids = np.fromiter(self.lost, np.int64, len(self.lost))
+        lf, lx, lv = (np.array(v) for v in zip(*self.lost.values()))
+        r, c = link(relink_distances(lf, lx, lv, cur.xyz[cols], cur.valid[cols], cur.start, self.relink_frames),
+                    self.link_3d)
+        ids[cols[c]] = lost_ids[r]
+        for tid in lost_ids[r].tolist():
+            del self.lost[tid]
+        self.counts["relinks"] += len(r)
+
+    def _end_tracks(self, cur: WindowTracklets3D) -> None:
+        """Tracks not continued by ``cur`` become lost; lost ones beyond re-linking reach, ended."""
+        prev, start, W = self.prev, cur.start, cur.valid.shape[1]
+        live = set(cur.track_id.tolist())
+        gone = [k for k in self.track_last if k not in live]
+        if gone:  # not continued: lost, and ended once it can no longer be re-linked
+            at = np.flatnonzero(member(prev.track_id, np.array(gone, np.int64)))
+            lf, lx, lv = tracklet_ends(prev.xyz[at], prev.valid[at], prev.start, self.max_speed)
+            for k, tid in enumerate(prev.track_id[at].tolist()):
+                self.track_last.pop(tid)
+                self.lost[tid] = (int(lf[k]), lx[k], lv[k])
+        horizon = start + self.window_step - self.relink_frames - 1  # a lost track ending before this is beyond reach
+        for tid in [k for k, v in self.lost.items() if v[0] < horizon]:
+            self.ended[tid] = self.lost.pop(tid)[0]
+        last = start + W - 1 - np.argmax(cur.valid[:, ::-1], axis=1)
+        self.track_last.update(zip(cur.track_id.tolist(), last.tolist()))

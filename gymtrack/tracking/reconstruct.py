@@ -1,10 +1,11 @@
 """3D tracklets by triangulation, and the outlier test (paper Section III-B, Eq. 3-4).
 
 A cluster of 2D segments (at most one per view) is triangulated frame by frame from the views
-whose segment is valid at that frame (Eq. 3, the arithmetic of :func:`gymtrack.geometry.triangulation.triangulate_views`
-compiled as :func:`._compiled.triangulate_views`, one call for the centres, box tops and box
-bottoms of every cluster and frame of a window). The box top-centre and bottom-centre points give the heights of the body's top and
-bottom (used to identify the target, Eq. 13).
+whose segment is valid at that frame (Eq. 3, the arithmetic of
+:func:`gymtrack.geometry.triangulation.triangulate_views` compiled per point as
+:func:`gymtrack.geometry.primitives.triangulate_points`: one call for the centres, box tops and
+box bottoms of every cluster and frame of a window). The box top-centre and bottom-centre
+points give the heights of the body's top and bottom (used to identify the target, Eq. 13).
 
 The cascade (Section III-C) needs to know which two-view clusters are "opposite": their lines
 of sight meet at more than ``opposite_angle_deg``. The angle is judged once per camera pair at
@@ -23,7 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _compiled
+from ..geometry.primitives import triangulate_points
+from ._kernels import reconstruct as kernels
 from .types import INTERPOLATED, PLANE, TRIANGULATION, WindowTracklets, WindowTracklets3D
 
 
@@ -63,10 +65,10 @@ def triangulate_clusters(segs: WindowTracklets, members: np.ndarray, P: np.ndarr
     if M == 0:
         return WindowTracklets3D.empty(segs.start, W, C)
     # pixels and observed-view counts gathered, then every point triangulated, in compiled loops
-    # (the same Eq. 3 arithmetic as triangulate_views, one point at a time)
-    u, v, n_views = _compiled.cluster_points(_contiguous(segs.box), np.ascontiguousarray(segs.observed),
-                                            np.ascontiguousarray(members, dtype=np.int64))
-    X, _ = _compiled.triangulate_views(_contiguous(P), u, v, np.isfinite(u), GN_ITERATIONS)  # NaN = view absent
+    # (the same Eq. 3 arithmetic as geometry.triangulation.triangulate_views, one point at a time)
+    u, v, n_views = kernels.cluster_points(_contiguous(segs.box), np.ascontiguousarray(segs.observed),
+                                          np.ascontiguousarray(members, dtype=np.int64))
+    X, _ = triangulate_points(_contiguous(P), u, v, np.isfinite(u), GN_ITERATIONS)  # NaN = view absent
     X = X.reshape(3, 3, M, W)  # (xyz, point, M, W)
     centre = np.ascontiguousarray(X[:, 0].transpose(1, 2, 0))  # (M, W, 3)
     valid = np.isfinite(centre).all(axis=2)
@@ -124,7 +126,7 @@ def outliers(xyz: np.ndarray, valid: np.ndarray, space: np.ndarray, max_speed: f
     M, W = valid.shape
     if M == 0:
         return np.zeros(0, bool)
-    return _compiled.outliers(_contiguous(xyz), np.ascontiguousarray(valid), _contiguous(space), float(max_speed))
+    return kernels.outliers(_contiguous(xyz), np.ascontiguousarray(valid), _contiguous(space), float(max_speed))
 
 
 def _contiguous(a: np.ndarray) -> np.ndarray:

@@ -9,7 +9,7 @@ Unlike the original greedy IoU tracker, each frame is solved as one global assig
 (``scipy.optimize.linear_sum_assignment`` maximising the summed IoU of pairs above the
 threshold); a pair whose track and box have no other candidate is matched directly, and the
 solver only sees the tracks and boxes of conflicting components. The per-frame loops are
-compiled (:mod:`._compiled`): a frame costs two kernel calls, plus the solver on a small matrix
+compiled (:mod:`._kernels.single_view`): a frame costs two kernel calls, plus the solver on a small matrix
 when some track or box has two candidates. All cameras are tracked by one object (2D track ids
 unique over all cameras); only pairs of one camera are compared, and :func:`corners` shifts
 boxes far apart in x per camera so that :func:`iou_matrix`-style matrices over all cameras
@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from . import _compiled
+from ._kernels.single_view import iou_commit, iou_frame
 
 
 def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -102,9 +102,8 @@ class IoUTracker:
     State (bounded by the number of people in view): per live track its last box (as corners
     and area, shifted per camera), camera, last frame and id.
 
-    Constructing one also compiles (or loads from numba's cache) all of the tracker's kernels,
-    once per process (:func:`._compiled.warm_up`): the :class:`~.tracker.Tracker` builds its
-    IoU tracker in its constructor, so compilation never counts as tracking time.
+    The kernels compile on first use; the :class:`~.tracker.Tracker` compiles them all in its
+    constructor (:func:`gymtrack.tracking.warm_up`), so compilation never counts as tracking time.
     """
 
     def __init__(self, iou_threshold: float = 0.1, max_age: int = 2):
@@ -115,7 +114,6 @@ class IoUTracker:
         self.last = np.zeros(0, np.int64)
         self.track_id = np.zeros(0, np.int64)
         self.next_id = 0
-        _compiled.warm_up()
 
     def __len__(self) -> int:
         return len(self.track_id)
@@ -127,8 +125,8 @@ class IoUTracker:
         box: (N, 4) centre-form boxes. Returns (N,) int64 2D track ids.
 
         The per-frame loops (old tracks dropped, corners, IoU of the pairs of one camera, the
-        pairs without a rival, new tracks) are compiled (:func:`._compiled.iou_frame` and
-        :func:`._compiled.iou_commit`, the arithmetic of :func:`iou_corners`). The assignment
+        pairs without a rival, new tracks) are compiled (:func:`._kernels.single_view.iou_frame` and
+        :func:`~._kernels.single_view.iou_commit`, the arithmetic of :func:`iou_corners`). The assignment
         (:func:`assign`) falls apart into the connected components of the allowed pairs; a
         component of one pair is that pair, and ``linear_sum_assignment`` gets only the tracks and
         boxes of the components with a conflict (the same optimum; only exact ties in summed
@@ -136,12 +134,12 @@ class IoUTracker:
         """
         camera = np.ascontiguousarray(camera, dtype=np.int64)
         box = np.ascontiguousarray(box, dtype=np.float64)
-        tb, tc, tl, ti, cb, r, c, crow, ccol, cost, allowed = _compiled.iou_frame(
+        tb, tc, tl, ti, cb, r, c, crow, ccol, cost, allowed = iou_frame(
             self.box, self.camera, self.last, self.track_id, int(frame), self.max_age, camera, box, self.iou_threshold)
         if len(crow):  # conflicts: the assignment, on their tracks and boxes only
             rr, cc = linear_sum_assignment(cost)
             keep = allowed[rr, cc]
             r, c = np.concatenate([r, crow[rr[keep]]]), np.concatenate([c, ccol[cc[keep]]])
-        self.box, self.camera, self.last, self.track_id, ids, self.next_id = _compiled.iou_commit(
+        self.box, self.camera, self.last, self.track_id, ids, self.next_id = iou_commit(
             tb, tc, tl, ti, self.next_id, int(frame), camera, cb, r, c)
         return ids

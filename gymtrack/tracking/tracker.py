@@ -1,25 +1,32 @@
 """The streaming gymnast tracker (paper Section III, Fig. 2) and its offline runner.
 
-:class:`Tracker` is fed one frame of boxes (all views) at a time and returns what became final:
+:class:`Tracker` is fed one frame of boxes (all views) at a time and returns what became final.
+It wires the stages; the stateful ones are objects of their own modules:
 
-1. single view (III-A): one IoU tracker per camera links boxes into 2D tracks (raw pixels);
+1. single view (III-A): one IoU tracker per camera links boxes into 2D tracks (raw pixels,
+   :class:`~.single_view.IoUTracker`); the boxes wait in a :class:`~.records.BoxTable`;
 2. windows (III-A): every ``step = window // 2`` frames the boxes received since the last
    window are undistorted (:mod:`.undistort`; the geometric stages work in undistorted pixels,
    the outputs keep the raw boxes) and the 2D tracks are cut into the window of the last
    ``window`` frames (:mod:`.windows`);
 3. cross-view clustering (III-B): Eq. 2 distances and Algorithm 1 (:mod:`.clustering`);
 4. triangulation (III-B, Eq. 3) of clusters of >= 2 views that are not just an opposite pair
-   (judged at the performance-space centre), and the outlier test (Eq. 4) (:mod:`.reconstruct`);
+   (judged at the apparatus), and the outlier test (Eq. 4) (:mod:`.reconstruct`);
 5. the cascade (III-C): the rest go to the vertical plane, Eq. 5-9 (:mod:`.plane_fallback`);
-6. cross-window linking (III-B, Eq. 10-12) (:mod:`.linking`), carrying the 2D boxes along;
+6. cross-window linking (III-B, Eq. 10-11) (:class:`~.linking.WindowLinker`), carrying the 2D
+   boxes along; the windows' points wait in :class:`~.records.WindowRecords` and are merged
+   (Eq. 12) when final;
 7. the heights of the body's top and bottom, from the box tops and bottoms by the same method;
-8. the target gymnast (III-D, Eq. 13-14) (:mod:`.target`).
+8. the target gymnast (III-D, Eq. 13-14) (:class:`~.target.TargetStage`).
+
+:meth:`Tracker._process_window` is Fig. 2 for one window: cut, cluster, triangulate, plane
+fallback, link -- one short method each.
 
 Latency: a frame's track points and boxes are final once the second window covering it has
 been processed, i.e. ``window - 1`` frames after it arrives (9 frames with the paper's window);
 the target adds ``backfill_frames`` (its decisions wait so an identification can claim the
-frames it looked back on, :class:`~.target.TargetBackfill`) and the smoothing half-window (2
-frames), more only at the end of a target segment (see :class:`~.target.TargetSmoother`).
+frames it looked back on, :class:`~.identify.TargetBackfill`) and the smoothing half-window (2
+frames), more only at the end of a target segment (see :class:`~.smoothing.TargetSmoother`).
 Memory is bounded on an endless stream: the tracker keeps only live 2D tracks, the boxes of
 frames not yet final, the previous window's 3D tracklets, the 3D records of frames not yet
 final, the target's last ``identify_frames`` frames and the ``backfill_frames`` held back
@@ -30,12 +37,13 @@ segments Eq. 2 separates are never fused on the plane; a view left alone may con
 plane, the 3D track its 2D track belonged to (or, for a 2D track new in the window, the track
 it links to), linked after the candidates of several views; the target back-fill.
 
-Modes (the paper's ablation, Table 4): ``cascade`` (the method), ``triangulation`` (no plane
-fallback; single-tracklet clusters are dropped and opposite pairs triangulated -- close to
-UniMMT), ``plane`` (every segment goes to the plane stage). ``association="oracle"`` replaces
-the IoU tracker and Algorithm 1 by ground-truth ids carried in ``Detections.track_id`` (>= 0;
--1 = a false positive, dropped and counted): the limit better association could reach. The
-plane stage then still applies its own Eq. 8 test, within each ground-truth person only.
+Modes (the paper's ablation, Table 4): ``cascade`` (the method), ``triangulation`` (no plane fallback;
+single-tracklet clusters are dropped and opposite pairs triangulated -- close to UniMMT), ``plane``
+(every segment goes to the plane stage); ``cascade+`` (beyond the paper) fuses two-view clusters with
+the plane by their uncertainty (:mod:`.fusion`). ``association="oracle"`` replaces the IoU tracker
+and Algorithm 1 by ground-truth ids carried in ``Detections.track_id`` (>= 0; -1 = a false positive,
+dropped and counted): the limit better association could reach. The plane stage then still applies
+its own Eq. 8 test, within each ground-truth person only. ``planes: auto``: :mod:`.plane_fit`.
 
 Speed (``benchmarks/bench_tracker.py``): every stage works on whole windows of columns; the
 per-frame work is one IoU matrix and, when needed, one assignment. What is skipped is counted
@@ -54,27 +62,30 @@ import numpy as np
 from ..detections import Detections
 from ..errors import InputError
 from ..scene import Scene
+from ..geometry.arrays import PlaneArrays
 from ..geometry.camera import Rig
 from ..geometry.epipolar import fundamental_matrices
 from ..geometry.plane import Plane
 from ..geometry.views import opposite_pairs
+from ._kernels import warm_up
 from .clustering import complete_linkage, tracklet_distances
-from .linking import link, link_distances, merge_overlaps, relink_distances, tracklet_ends
+from .fusion import PlaneRayFusion
+from .linking import WindowLinker
 from .plane_fallback import plane_stage
+from .plane_fit import resolve_auto_planes
 from .reconstruct import cluster_members, opposite_clusters, outliers, triangulate_clusters
 from .single_view import IoUTracker
-from .target import (TargetBackfill, TargetSelector, TargetSmoother, concat_rows, identify_indicator,
-                     target_and_boxes, track_box_sizes)
-from .types import Target, TrackerOutput, Tracks3D, TrackResult, WindowTracklets, WindowTracklets3D
-from .undistort import UndistortTables
+from .target import TargetStage
+from .types import TrackerOutput, Tracks3D, TrackResult, WindowTracklets, WindowTracklets3D
+from .records import BoxTable, WindowRecords
 from .windows import build_window
 
-MODES = ("cascade", "triangulation", "plane")
+MODES = ("cascade", "triangulation", "plane", "cascade+")
 ASSOCIATIONS = ("iou", "oracle")
 #: the per-window counters of :meth:`Tracker.summary` (what was used, made, dropped)
 COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulated", "segments_to_plane",
           "plane_tracklets", "segments_dropped_single", "tracklets_outliers", "links", "relinks", "plane_single_view",
-          "plane_single_view_unlinked")
+          "plane_single_view_unlinked", "fused_plane", "fused_triangulated", "fused_to_plane_stage")
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
 
 
@@ -85,7 +96,7 @@ class Tracker:
     ----------
     rig: the cameras; ``Detections.camera`` indexes it.
     scene: performance space, buffer, planes, target heights and every parameter (``scene.params``).
-    mode: ``cascade`` | ``triangulation`` | ``plane`` (see the module docstring).
+    mode: ``cascade`` | ``triangulation`` | ``plane`` | ``cascade+`` (see the module docstring).
     association: ``iou`` (the method) | ``oracle`` (ground-truth ids in ``track_id``).
 
     Use: ``out = tracker.update(frame, detections_of_that_frame)`` for increasing frame
@@ -110,17 +121,16 @@ class Tracker:
         self.P = rig.projections
         self.centres = rig.centres
         self.planes = [Plane.from_spec(s) for s in scene.planes]
+        self.plane_arrays = PlaneArrays.from_planes(self.planes)  # the planes as the plane kernel takes them
         self.space = np.asarray(scene.tracking_space, dtype=np.float64)
-        self.perf = np.asarray(scene.performance_space, dtype=np.float64)
-        self.perf_centre = (self.perf[:3] + self.perf[3:]) / 2
         # (C, C) opposite camera pairs, judged at the scene's focus, the apparatus (see reconstruct)
         self.opposite = opposite_pairs(rig, scene.focus_point, p.opposite_angle_deg)
-        self._undist = UndistortTables(rig) if any(cam.has_distortion for cam in rig) else None
+        warm_up()  # numba's compile / cache load of every kernel: once per process, never tracking time
         self.iou = IoUTracker(p.iou_threshold, p.max_age)
-        self.selector = TargetSelector(p.identify_frames)
-        self.smoother = TargetSmoother(p.max_gap)
-        self.backfill = TargetBackfill(p.backfill_frames)
-        self._box_memory: dict = {}
+        self.counts: dict = defaultdict(int)
+        self.linker = WindowLinker(p.step, p.link_3d, p.relink_frames, p.max_speed, self.counts)
+        self.fusion = PlaneRayFusion(rig, scene, self.plane_arrays, self.opposite, self.counts) if mode == "cascade+" else None
+        self.target = TargetStage(rig, scene)
         # stream position
         self.first_frame: int | None = None
         self.last_frame: int | None = None
@@ -128,26 +138,12 @@ class Tracker:
         self._next_start: int | None = None
         self._window_index = 0
         self._finished = False
-        # boxes: chunks not yet undistorted, and the table of frames not yet final
-        self._pending: list[tuple] = []
-        self._table = self._empty_table()
-        self._det_counter = 0
-        # 3D state
-        self._prev: WindowTracklets3D | None = None
-        self._next_track_id = 0
-        self._track_last: dict[int, int] = {}  # live track -> last valid frame
-        self._ended: dict[int, int] = {}  # ended track -> last frame (kept identify_frames)
-        # lost tracks (not continued, may still be re-linked): id -> (last frame, last xyz, velocity)
-        self._lost: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
-        # 2D track ids that were members of the previous window's 3D tracklets (single-view continuation)
-        self._prev_2d = np.zeros(0, np.int64)
-        self._prev_seen = np.zeros(0, np.int64)  # 2D tracks of the previous window's segments
-        self._rec3d: list[tuple] = []
-        self._rec2d: list[tuple] = []
+        self.table = BoxTable(rig)  # the boxes of frames not yet final
+        self.records = WindowRecords()  # the windows' 3D points and member boxes until final
         self._out: list[TrackerOutput] = []
+        self._nothing = TrackerOutput.empty(self.names)  # what most calls return
         # counters
         self.timings = dict.fromkeys(STAGES, 0.0)
-        self.counts: dict = defaultdict(int)
         self.read = np.zeros(self.n_cameras, np.int64)
         self.used = np.zeros(self.n_cameras, np.int64)
         self.false_positives = np.zeros(self.n_cameras, np.int64)
@@ -160,15 +156,17 @@ class Tracker:
         frame = int(frame)
         if self.last_frame is not None and frame <= self.last_frame:
             raise InputError(f"frames must increase: got frame {frame} after {self.last_frame}", field="frame")
-        if tuple(detections.camera_names) != self.names:
+        if detections.camera_names != self.names and tuple(detections.camera_names) != self.names:
             raise InputError(f"detections are of cameras {list(detections.camera_names)}, the rig has {list(self.names)}",
                              field="camera_names")
-        if len(detections) and np.any(detections.frame != frame):
-            bad = int(detections.frame[detections.frame != frame][0])
-            raise InputError(f"update({frame}, ...) got a box of frame {bad}", field="frame")
-        if len(detections) and (detections.camera.min() < 0 or detections.camera.max() >= self.n_cameras):
+        camera = detections.camera.astype(np.int64)
+        # one test per frame for both (as uint64, negative camera indices are huge)
+        if len(camera) and ((detections.frame != frame) | (camera.view(np.uint64) >= self.n_cameras)).any():
+            if (detections.frame != frame).any():
+                bad = int(detections.frame[detections.frame != frame][0])
+                raise InputError(f"update({frame}, ...) got a box of frame {bad}", field="frame")
             raise InputError(f"camera index outside 0..{self.n_cameras - 1}", field="camera")
-        self._ingest(frame, detections.camera.astype(np.int64), detections.box, detections.score, detections.track_id)
+        self._ingest(frame, camera, detections.box, detections.score, detections.track_id)
         return self._collect()
 
     def finish(self) -> TrackerOutput:
@@ -180,19 +178,14 @@ class Tracker:
             while self._next_start <= self.last_frame:
                 self._process_window(self._next_start)
             self._finalise(self.last_frame)
-            t0 = time.perf_counter()
-            self._flush_target()
-            self.timings["target"] += time.perf_counter() - t0
+            target, boxes = self._timed("target", self.target.finish)
+            if len(target):
+                self._out.append(TrackerOutput(Tracks3D.empty(), Detections.empty(self.names), target, boxes))
         return self._collect()
 
     def state_size(self) -> int:
         """Number of stored rows/items over all internal state (for checking bounded memory)."""
-        n = len(self.iou) + sum(len(c[1]) for c in self._pending) + len(self._table["frame"])
-        n += sum(len(r[0]) for r in self._rec3d) + sum(len(r[0]) for r in self._rec2d)
-        n += 0 if self._prev is None else self._prev.valid.size
-        n += len(self._track_last) + len(self._lost) + len(self._ended) + len(self.selector) + len(self.smoother)
-        n += len(self.backfill)
-        return n
+        return len(self.iou) + len(self.table) + len(self.records) + len(self.linker) + len(self.target)
 
     def summary(self) -> dict:
         """Counts and timings so far: frames, detections read / used / dropped per camera,
@@ -208,10 +201,10 @@ class Tracker:
             "last_frame": self.last_frame,
             "detections_read": {n: int(v) for n, v in zip(names, self.read)},
             "detections_used": {n: int(v) for n, v in zip(names, self.used)},
-            "tracks": int(self._next_track_id),  # every track has at least one point
-            "target_frames": int(self.counts["target_frames"]),
-            "target_switches": int(self.selector.switches),
-            "target_identifications": int(self.selector.identifications),
+            "tracks": int(self.linker.next_track_id),  # every track has at least one point
+            "target_frames": int(self.target.frames),
+            "target_switches": int(self.target.switches),
+            "target_identifications": int(self.target.identifications),
             **{k: int(self.counts[k]) for k in COUNTS},
             "seconds": {k: round(v, 6) for k, v in self.timings.items()},
             "seconds_total": round(total, 6),
@@ -232,7 +225,7 @@ class Tracker:
             skip = (frame - self.width - self._next_start) // self.step  # windows wholly before frame - 1
             if skip > 2 and self._idle():  # a long pause with nothing buffered: jump over empty windows
                 self._next_start += (skip - 1) * self.step
-                self._prev = None
+                self.linker.break_chain()
                 self._finalise(self._next_start - 1)
                 continue
             self._process_window(self._next_start)
@@ -253,313 +246,159 @@ class Tracker:
                 self.counts["duplicates"] += len(track2d) - len(first)
                 first = np.sort(first)
                 camera, box, score, track2d = camera[first], box[first], score[first], track2d[first]
-        self._pending.append((frame, camera, track2d, box, score))  # frame numbers and ids added per window
+        self.table.add(frame, camera, track2d, box, score)
         self.timings["single_view"] += time.perf_counter() - t0
         if self._next_start + self.width - 1 == frame:
             self._process_window(self._next_start)
 
     def _idle(self) -> bool:
         """Nothing buffered that a window could still use (no boxes, tracklets or pending records)."""
-        return (not self._pending and not np.any(self._table["frame"] >= self._next_start)
-                and (self._prev is None or len(self._prev) == 0) and not self._rec3d and not self._rec2d)
+        return self.table.idle(self._next_start) and self.linker.idle and not len(self.records)
 
-    @staticmethod
-    def _empty_table() -> dict:
-        return {"frame": np.zeros(0, np.int64), "camera": np.zeros(0, np.int64), "track2d": np.zeros(0, np.int64),
-                "raw": np.zeros((0, 4)), "score": np.zeros(0, np.float32), "det": np.zeros(0, np.int64),
-                "ubox": np.zeros((0, 4))}
+    # ================================================================ one window (stages 2-6, Fig. 2)
+    def _process_window(self, start: int) -> None:
+        """The window of frames ``start .. start + window - 1``: cut, cluster, triangulate, plane
+        fallback, link; then the frames before the next window's start are final."""
+        segs = self._timed("windows", self._cut, start)
+        labels, D2 = self._timed("clustering", self._cluster, segs)
+        tri, to_plane = self._timed("triangulation", self._triangulate, segs, labels)
+        plane = self._timed("plane", self._plane_fallback, segs, to_plane, D2)
+        self._timed("linking", self._link, start, segs, tri, plane)
+        self._finalise(start + self.step - 1)
 
-    def _undistort(self, camera: np.ndarray, box: np.ndarray) -> np.ndarray:
-        """Boxes to undistorted pixels: the top-left and bottom-right corners are undistorted
-        (:class:`~.undistort.UndistortTables`, OpenCV-exact to 0.05 px) and the box rebuilt from
-        them, so it keeps the person's extent in the ideal image."""
-        if self._undist is None or len(box) == 0:
-            return box.copy()
-        n = len(box)
-        centre, half = box[:, :2], box[:, 2:] / 2
-        und = self._undist(np.concatenate([camera, camera]), np.concatenate([centre - half, centre + half]))
-        tl, br = und[:n], und[n:]
-        out = np.empty((n, 4))  # written in place: no concatenation of the halves
-        np.add(tl, br, out=out[:, :2])
-        out[:, :2] /= 2
-        np.subtract(br, tl, out=out[:, 2:])
+    def _timed(self, stage: str, fn: Callable, *args):
+        t0 = time.perf_counter()
+        out = fn(*args)
+        self.timings[stage] += time.perf_counter() - t0
         return out
 
-    def _flush_pending(self, start: int) -> None:
-        """Undistort the boxes received since the last window and drop the final frames' boxes."""
-        t = self._table
-        # the table is in arrival (frame) order: the rows kept are a suffix, sliced without a copy
-        cut = int(np.searchsorted(t["frame"], start))
-        if self._pending:
-            frames, cams, tids, raws, scores = zip(*self._pending)
-            self._pending = []
-            c, tid, raw = np.concatenate(cams), np.concatenate(tids), np.concatenate(raws)
-            f = np.repeat(np.array(frames, np.int64), [len(x) for x in cams])
-            det = self._det_counter + np.arange(len(c))  # detection row ids, in arrival order
-            self._det_counter += len(c)
-            if self.association == "iou":
-                self.read += np.bincount(c, minlength=self.n_cameras)
-            new = {"frame": f, "camera": c, "track2d": tid, "raw": raw,
-                   "score": np.concatenate(scores).astype(np.float32), "det": det, "ubox": self._undistort(c, raw)}
-            self._table = {k: np.concatenate([v[cut:], new[k]]) for k, v in t.items()}
-        elif cut:
-            self._table = {k: v[cut:] for k, v in t.items()}
-
-    # ================================================================ one window (stages 2-6)
-    def _process_window(self, start: int) -> None:
-        p, W, C = self.params, self.width, self.n_cameras
-        clock = time.perf_counter
-        t0 = clock()
-        self._flush_pending(start)
-        t = self._table
-        segs, dropped = build_window(start, W, t["frame"], t["camera"], t["track2d"], t["ubox"], t["det"],
+    def _cut(self, start: int) -> WindowTracklets:
+        """Stage 2: the boxes received so far undistorted, the 2D tracks cut into the window."""
+        p = self.params
+        new = self.table.flush(start)
+        if new is not None and self.association == "iou":
+            self.read += np.bincount(new, minlength=self.n_cameras)
+        t = self.table.rows
+        segs, dropped = build_window(start, self.width, t["frame"], t["camera"], t["track2d"], t["ubox"], t["det"],
                                      p.min_tracklet_boxes, p.max_age)
         self.counts["windows"] += 1
         self.counts["segments"] += len(segs)
         self.counts["segments_dropped_short"] += dropped
-        t1 = clock()
-        self.timings["windows"] += t1 - t0
+        return segs
 
-        # stage 3: clusters of segments
-        D2 = None  # Eq. 2 distances of the segments (the method's own association only)
+    def _cluster(self, segs: WindowTracklets) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """Stage 3: (K,) cluster labels of the segments (None: every segment goes to the plane)
+        and the Eq. 2 distances (K, K) (the method's own association only, else None)."""
         if self.mode == "plane":
-            labels = None
-        elif self.association == "oracle":
-            labels = np.unique(segs.track2d // C, return_inverse=True)[1]
+            return None, None
+        if self.association == "oracle":
+            return np.unique(segs.track2d // self.n_cameras, return_inverse=True)[1], None
+        D2 = tracklet_distances(segs, self.F)
+        return complete_linkage(D2, self.params.cluster_2d), D2
+
+    def _triangulate(self, segs: WindowTracklets, labels: np.ndarray | None
+                     ) -> tuple[WindowTracklets3D | None, np.ndarray]:
+        """Stage 4: triangulation of multi-view clusters, outliers dropped. Returns the 3D
+        tracklets (None when nothing was clustered) and the segments for the plane (sorted)."""
+        p, C = self.params, self.n_cameras
+        if labels is None:
+            return None, np.arange(len(segs))
+        to_plane, fused = np.zeros(0, np.int64), None
+        if not len(segs):
+            return None, to_plane
+        members = cluster_members(labels, segs.camera, C)
+        multi = (members >= 0).sum(axis=1) >= 2
+        if self.mode != "triangulation":  # single tracklets and opposite pairs go to the plane
+            fallback = ~multi | opposite_clusters(members, self.opposite)
+            if self.fusion is not None:  # cascade+: two-view clusters fused with the plane (.fusion)
+                fused, fallback, multi = self.fusion.step(segs, members, fallback, multi)
+            back = members[fallback].ravel()
+            to_plane = np.sort(back[back >= 0])
+            multi &= ~fallback
         else:
-            D2 = tracklet_distances(segs, self.F)
-            labels = complete_linkage(D2, p.cluster_2d)
-        t2 = clock()
-        self.timings["clustering"] += t2 - t1
+            self.counts["segments_dropped_single"] += int(np.count_nonzero(~multi))
+        tri = triangulate_clusters(segs, members[multi], self.P)
+        tri = tri if fused is None else WindowTracklets3D.concat([tri, fused])
+        bad = outliers(tri.xyz, tri.valid, self.space, p.max_speed)
+        if bad.any():
+            self.counts["tracklets_outliers"] += int(bad.sum())
+            tri = tri.subset(~bad)
+        self.counts["clusters_triangulated"] += len(tri)
+        return tri, to_plane
 
-        # stage 4: triangulation of multi-view clusters
-        parts = []
-        to_plane = np.arange(len(segs)) if labels is None else np.zeros(0, np.int64)
-        if labels is not None and len(segs):
-            members = cluster_members(labels, segs.camera, C)
-            multi = (members >= 0).sum(axis=1) >= 2
-            if self.mode == "cascade":  # single tracklets and opposite pairs go to the plane
-                fallback = ~multi | opposite_clusters(members, self.opposite)
-                back = members[fallback].ravel()
-                to_plane = np.sort(back[back >= 0])
-                multi &= ~fallback
-            else:
-                self.counts["segments_dropped_single"] += int(np.count_nonzero(~multi))
-            tri = triangulate_clusters(segs, members[multi], self.P)
-            bad = outliers(tri.xyz, tri.valid, self.space, p.max_speed)
-            if bad.any():
-                self.counts["tracklets_outliers"] += int(bad.sum())
-                tri = tri.subset(~bad)
-            self.counts["clusters_triangulated"] += len(tri)
-            parts.append(tri)
-        t3 = clock()
-        self.timings["triangulation"] += t3 - t2
+    def _plane_fallback(self, segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | None
+                        ) -> WindowTracklets3D | None:
+        """Stage 5: the segments ``to_plane`` on the vertical plane (Eq. 5-9), outliers dropped;
+        ``members`` index ``segs``. None when nothing is left."""
+        if not len(to_plane):
+            return None
+        p, C = self.params, self.n_cameras
+        sub = segs.subset(to_plane)
+        plane_labels = None
+        if self.association == "oracle":
+            plane_labels = np.unique(sub.track2d // C, return_inverse=True)[1]
+        # beyond the paper: two segments the epipolar test (Eq. 2) says are different people
+        # may not be fused on the plane either (their centre rays can still meet there: a phantom)
+        apart = None if D2 is None else D2[np.ix_(to_plane, to_plane)] >= p.cluster_2d
+        # beyond the paper: a view left alone may continue, on the plane, the 3D track its 2D
+        # track already belongs to (kept by linking only if it links to that track)
+        single = self.linker.may_continue_alone(sub.track2d)
+        pl = plane_stage(sub, self.rig, self.plane_arrays, p.cluster_plane, plane_labels, apart, single)
+        self.counts["segments_to_plane"] += len(to_plane)
+        if not len(pl):
+            return None
+        bad = outliers(pl.xyz, pl.valid, self.space, p.max_speed)
+        if bad.any():
+            self.counts["tracklets_outliers"] += int(bad.sum())
+            pl = pl.subset(~bad)
+        pl = pl.with_members(np.where(pl.members >= 0, to_plane[np.maximum(pl.members, 0)], -1))  # index segs
+        self.counts["plane_tracklets"] += len(pl)
+        return pl
 
-        # stage 5: the plane fallback
-        if len(to_plane):
-            sub = segs.subset(to_plane)
-            plane_labels = None
-            if self.association == "oracle":
-                plane_labels = np.unique(sub.track2d // C, return_inverse=True)[1]
-            # beyond the paper: two segments the epipolar test (Eq. 2) says are different people
-            # may not be fused on the plane either (their centre rays can still meet there: a phantom)
-            apart = None if D2 is None else D2[np.ix_(to_plane, to_plane)] >= p.cluster_2d
-            # beyond the paper: a view left alone may continue, on the plane, the 3D track its 2D
-            # track already belongs to (kept below only if it links to that track)
-            # (and so may a 2D track new in this window: a view's track broke, it may re-link the 3D track)
-            single = member(sub.track2d, self._prev_2d) | ~member(sub.track2d, self._prev_seen)
-            pl = plane_stage(sub, self.rig, self.planes, p.cluster_plane, plane_labels, apart, single)
-            self.counts["segments_to_plane"] += len(to_plane)
-            if len(pl):
-                bad = outliers(pl.xyz, pl.valid, self.space, p.max_speed)
-                if bad.any():
-                    self.counts["tracklets_outliers"] += int(bad.sum())
-                    pl = pl.subset(~bad)
-                members = np.where(pl.members >= 0, to_plane[np.maximum(pl.members, 0)], -1)  # index segs
-                pl = WindowTracklets3D(pl.start, pl.xyz, pl.top_z, pl.bottom_z, pl.valid, pl.source, pl.n_views,
-                                       members, pl.track_id)
-                self.counts["plane_tracklets"] += len(pl)
-                parts.append(pl)
-        t4 = clock()
-        self.timings["plane"] += t4 - t3
-
-        # stage 6: cross-window linking
-        cur = WindowTracklets3D.concat(parts) if parts else WindowTracklets3D.empty(start, W, C)
+    def _link(self, start: int, segs: WindowTracklets, tri: WindowTracklets3D | None,
+              plane: WindowTracklets3D | None) -> None:
+        """Stage 6: cross-window linking (one-view plane tracklets only continue tracks); the
+        window's points and boxes are kept until final."""
+        parts = [x for x in (tri, plane) if x is not None]
+        cur = WindowTracklets3D.concat(parts) if parts else WindowTracklets3D.empty(start, self.width, self.n_cameras)
         solo = np.zeros(len(cur), bool)  # one-view plane tracklets: they may only continue a track
-        if parts and self.mode != "triangulation" and len(to_plane):
-            solo[len(cur) - len(parts[-1]):] = (parts[-1].members >= 0).sum(axis=1) == 1
-        ids = np.full(len(cur), -1, np.int64)
-        prev = self._prev
-        chained = prev is not None and len(prev) > 0 and prev.start == start - self.step
-        # a cascade here too: candidates of several views link first, one-view ones only to what is left
-        for k, group in enumerate((~solo, solo) if solo.any() else (None,)):
-            cols = np.flatnonzero(ids < 0) if group is None else np.flatnonzero(group & (ids < 0))
-            # the first pass may link any previous tracklet, the second only those still free
-            free = (np.flatnonzero(~member(prev.track_id, ids)) if k else np.arange(len(prev))) if chained else []
-            if len(cols) and len(free):
-                r, c = link(link_distances(prev.xyz[free], prev.valid[free], cur.xyz[cols], cur.valid[cols], self.step),
-                            p.link_3d)
-                ids[cols[c]] = prev.track_id[free[r]]
-                self.counts["links"] += len(r)
-                cols = cols[ids[cols] < 0]
-            if self._lost and len(cols) and p.relink_frames > 0:  # beyond the paper: bridge short gaps
-                lost_ids = np.fromiter(self._lost, np.int64, len(self._lost))
-                lf, lx, lv = (np.array(v) for v in zip(*self._lost.values()))
-                r, c = link(relink_distances(lf, lx, lv, cur.xyz[cols], cur.valid[cols], start, p.relink_frames),
-                            p.link_3d)
-                ids[cols[c]] = lost_ids[r]
-                for tid in lost_ids[r].tolist():
-                    del self._lost[tid]
-                self.counts["relinks"] += len(r)
-        new = ids < 0
-        if solo.any():
-            drop = solo & new
-            self.counts["plane_single_view"] += int(np.count_nonzero(solo & ~new))
-            self.counts["plane_single_view_unlinked"] += int(np.count_nonzero(drop))
-            if drop.any():
-                cur, ids, new = cur.subset(~drop), ids[~drop], new[~drop]
-        ids[new] = self._next_track_id + np.arange(int(new.sum()))
-        self._next_track_id += int(new.sum())
-        cur = WindowTracklets3D(cur.start, cur.xyz, cur.top_z, cur.bottom_z, cur.valid, cur.source, cur.n_views,
-                                cur.members, ids)
-        self._record(cur, segs)
-        self._prev_2d = segs.track2d[cur.members[cur.members >= 0]]
-        self._prev_seen = segs.track2d
-        live = set(ids.tolist())
-        gone = [k for k in self._track_last if k not in live]
-        if gone:  # not continued: lost, and ended once it can no longer be re-linked
-            at = np.flatnonzero(member(prev.track_id, np.array(gone, np.int64)))
-            lf, lx, lv = tracklet_ends(prev.xyz[at], prev.valid[at], prev.start, p.max_speed)
-            for k, tid in enumerate(prev.track_id[at].tolist()):
-                self._track_last.pop(tid)
-                self._lost[tid] = (int(lf[k]), lx[k], lv[k])
-        horizon = start + self.step - p.relink_frames - 1  # a lost track ending before this is beyond reach
-        for tid in [k for k, v in self._lost.items() if v[0] < horizon]:
-            self._ended[tid] = self._lost.pop(tid)[0]
-        last = start + W - 1 - np.argmax(cur.valid[:, ::-1], axis=1)
-        self._track_last.update(zip(ids.tolist(), last.tolist()))
-        self._prev = cur
+        if plane is not None:
+            solo[len(cur) - len(plane):] = (plane.members >= 0).sum(axis=1) == 1
+        cur = self.linker.step(cur, segs.track2d, solo)
+        self.records.add(cur, segs, self._window_index)
         self._window_index += 1
         self._next_start = start + self.step
-        self.timings["linking"] += clock() - t4
-        self._finalise(start + self.step - 1)
-
-    def _record(self, cur: WindowTracklets3D, segs: WindowTracklets) -> None:
-        """Keep the window's 3D points and member boxes until their frames are final."""
-        m, t = np.nonzero(cur.valid)
-        if len(m):
-            self._rec3d.append((cur.start + t, cur.track_id[m], cur.xyz[m, t], cur.top_z[m, t], cur.bottom_z[m, t],
-                                cur.source[m, t], cur.n_views[m, t]))
-        tm, tc = np.nonzero(cur.members >= 0)
-        if len(tm):
-            k = cur.members[tm, tc]
-            dets = segs.det[k]  # (n, W)
-            i, tt = np.nonzero(dets >= 0)
-            n = len(i)
-            self._rec2d.append((dets[i, tt], cur.start + tt, tc[i], cur.track_id[tm[i]],
-                                np.full(n, self._window_index, np.int64)))
 
     # ================================================================ finalisation (Eq. 12, stages 7-8)
     def _finalise(self, upto: int) -> None:
         if upto <= self.final_frame:
             return
         t0 = time.perf_counter()
-        tracks = self._final_tracks(upto)
+        tracks = self.records.tracks(upto)
         boxes = self._final_boxes(upto)
         t1 = time.perf_counter()
         self.timings["finalise"] += t1 - t0
-        target = self._select_target(self.final_frame + 1, upto, tracks, boxes)
+        target = self.target.update(self.final_frame + 1, upto, tracks, boxes, self.linker.ended)
         self.final_frame = upto
         self._out.append(TrackerOutput(tracks, boxes, *target))
         self.timings["target"] += time.perf_counter() - t1
 
-    def _final_tracks(self, upto: int) -> Tracks3D:
-        """Eq. 12: every (frame, track) estimate from the windows covering the frame, averaged."""
-        if not self._rec3d:
-            return Tracks3D.empty()
-        cols = [np.concatenate(c) for c in zip(*self._rec3d)] if len(self._rec3d) > 1 else list(self._rec3d[0])
-        done = cols[0] <= upto
-        self._rec3d = [tuple(c[~done] for c in cols)] if not done.all() else []
-        out = merge_overlaps(*(c[done] for c in cols))
-        return out
-
     def _final_boxes(self, upto: int) -> Detections:
-        """The tracks' boxes: per detection the latest window's track wins; one box per (frame, view, track)."""
-        if not self._rec2d:
+        """The tracks' raw boxes of the frames up to ``upto`` (:meth:`~.records.WindowRecords.boxes`)."""
+        rows = self.records.boxes(upto, self.n_cameras, self.linker.next_track_id + 1)
+        if rows is None:
             return Detections.empty(self.names)
-        cols = [np.concatenate(c) for c in zip(*self._rec2d)] if len(self._rec2d) > 1 else list(self._rec2d[0])
-        done = cols[1] <= upto
-        self._rec2d = [tuple(c[~done] for c in cols)] if not done.all() else []
-        det, frame, cam, tid, win = (c[done] for c in cols)
-
-        def group_starts(keys):  # sorted keys -> True at the first row of every run of equal keys
-            starts = np.ones(len(keys), bool)
-            np.not_equal(keys[1:], keys[:-1], out=starts[1:])
-            return starts
-
-        # two stable sorts, each keeping the first row of every group (cheaper than np.unique):
-        # per detection the latest window (ties: the earlier record) ...
-        order = np.lexsort((-win, det))
-        first = order[group_starts(det[order])]
-        det, frame, cam, tid = det[first], frame[first], cam[first], tid[first]
-        # ... then per (frame, view, track) the smallest detection; the result is in
-        # (frame, view, track) order, the output order
-        key = (frame * self.n_cameras + cam) * (self._next_track_id + 1) + tid
-        order = np.lexsort((det, key))
-        first = order[group_starts(key[order])]
-        det, frame, cam, tid = det[first], frame[first], cam[first], tid[first]
-        t = self._table
-        row = np.searchsorted(t["det"], det)
+        det, frame, cam, tid = rows
+        raw, score = self.table.lookup(det)
         self.used += np.bincount(cam, minlength=self.n_cameras)
-        return Detections.from_arrays(frame, cam, t["raw"][row], self.names, score=t["score"][row], track_id=tid)
-
-    def _select_target(self, a: int, b: int, tracks: Tracks3D, boxes: Detections) -> tuple[Target, Detections]:
-        """Eq. 13 for the final frames a..b, the back-fill, then gap filling, smoothing and Eq. 14 boxes."""
-        sc = self.scene
-        ind, inperf = identify_indicator(tracks.xyz, tracks.top_z, tracks.bottom_z, self.perf,
-                                         sc.target.h_top, sc.target.h_bot)
-        target = self.selector.select(a, b, tracks.frame, tracks.track_id, ind, inperf, self._ended)  # (b-a+1,)
-        self.backfill.push(a, target, (tracks.frame, tracks.track_id, tracks.xyz, tracks.top_z, tracks.bottom_z,
-                                       tracks.source, track_box_sizes(tracks, boxes, self.n_cameras)))
-        upto = b - self.params.backfill_frames
-        emitted = [self.smoother.push_rows(*rows)] if (rows := self.backfill.pop(upto)) is not None else []
-        emitted.append(self.smoother.advance_rows(upto))
-        # forget ended tracks that can no longer matter
-        horizon = b - self.params.identify_frames
-        for tid in [k for k, v in self._ended.items() if v < horizon and k != self.selector.target]:
-            del self._ended[tid]
-        return self._target_rows([e for e in emitted if e is not None])
-
-    def _flush_target(self) -> None:
-        """End of stream: release the held-back decisions and close the last target segment."""
-        rows = self.backfill.pop()
-        emitted = [self.smoother.push_rows(*rows)] if rows is not None else []
-        emitted.append(self.smoother.close_rows())
-        emitted = [e for e in emitted if e is not None]
-        if emitted:
-            self._out.append(TrackerOutput(Tracks3D.empty(), Detections.empty(self.names), *self._target_rows(emitted)))
-
-    def _target_rows(self, emitted: list[tuple]) -> tuple[Target, Detections]:
-        """Smoothed target rows (a list of column tuples, see :data:`~.target.ROW_FIELDS`) ->
-        the target and its Eq. 14 boxes."""
-        if not emitted:
-            return Target.empty(), Detections.empty(self.names)
-        rows = concat_rows(emitted)
-        self.counts["target_frames"] += len(rows[0])
-        return target_and_boxes(self.rig, rows, self.params.box_scale, self._box_memory, self.planes)
+        return Detections.from_arrays(frame, cam, raw, self.names, score=score, track_id=tid)
 
     def _collect(self) -> TrackerOutput:
+        if not self._out:
+            return self._nothing
         out = TrackerOutput.concat(self._out, self.names) if len(self._out) != 1 else self._out[0]
         self._out = []
         return out
-
-
-def member(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``np.isin(a, b)`` for the small id arrays of one window ((n,), (m,) -> (n,) bool): one
-    broadcast comparison, ~10 x cheaper than ``np.isin``'s general path at these sizes."""
-    if a.size * b.size > 65536:
-        return np.isin(a, b)
-    return (a[:, None] == b[None, :]).any(axis=1) if b.size else np.zeros(a.shape, bool)
 
 
 # ==================================================================== offline runners
@@ -571,26 +410,22 @@ def track_detections(
     association: str = "iou",
     progress: Callable[[int, int], None] | None = None,
 ) -> TrackResult:
-    """Run the streaming :class:`Tracker` over all frames of ``detections`` (offline use).
+    """Run the streaming :class:`Tracker` over all frames of ``detections`` (offline use): one
+    :meth:`Tracker.update` per frame with boxes, so input is checked as in streaming use.
 
     progress: optional ``progress(frames_done, frames_total)`` callback, called every ~100 frames.
     """
-    tracker = Tracker(rig, scene, mode=mode, association=association)
+    tracker = Tracker(rig, resolve_auto_planes(rig, scene, detections, track_detections), mode=mode, association=association)
     det = detections.sorted()
-    if tuple(det.camera_names) != rig.names:
-        raise InputError(f"detections are of cameras {list(det.camera_names)}, the rig has {list(rig.names)}",
-                         field="camera_names")
     outs = []
     if len(det):
         frames, first = np.unique(det.frame, return_index=True)
-        bounds = np.r_[first, len(det)]
+        bounds = np.r_[first, len(det)].tolist()
         total = int(frames[-1] - frames[0] + 1)
-        cam = det.camera.astype(np.int64)
         for i, f in enumerate(frames.tolist()):
-            a, b = bounds[i], bounds[i + 1]
-            tracker._ingest(f, cam[a:b], det.box[a:b], det.score[a:b], det.track_id[a:b])
-            if tracker._out:
-                outs.append(tracker._collect())
+            out = tracker.update(f, det.select(slice(bounds[i], bounds[i + 1])))
+            if out:  # (nothing became final at most frames)
+                outs.append(out)
             if progress is not None and i % 100 == 0:
                 progress(int(f - frames[0] + 1), total)
         if progress is not None:

@@ -8,6 +8,8 @@ point); no Python object per box. The levels, in pipeline order:
 * :class:`WindowTracklets3D`  the 3D tracklets of one window (III-B/C), dense (M, W);
 * :class:`Tracks3D`  final 3D track points (after cross-window linking, III-B), one row per
   (frame, track);
+* :class:`TargetRows`  track points on their way through the target stage (III-D): the
+  candidates' and the target's points with their detections' sizes;
 * :class:`Target`  the target gymnast's trajectory (III-D), one row per frame;
 * :class:`TrackerOutput`  what one call of the streaming tracker made final;
 * :class:`TrackResult`  a whole routine plus its summary.
@@ -162,6 +164,16 @@ class WindowTracklets3D:
                         ("xyz", "top_z", "bottom_z", "valid", "source", "n_views", "members", "track_id")),
         )
 
+    def with_track_id(self, track_id: np.ndarray) -> "WindowTracklets3D":
+        """The same tracklets with ``track_id`` (M,) (cheaper than ``dataclasses.replace``)."""
+        return WindowTracklets3D(self.start, self.xyz, self.top_z, self.bottom_z, self.valid, self.source, self.n_views,
+                                 self.members, track_id)
+
+    def with_members(self, members: np.ndarray) -> "WindowTracklets3D":
+        """The same tracklets with ``members`` (M, C)."""
+        return WindowTracklets3D(self.start, self.xyz, self.top_z, self.bottom_z, self.valid, self.source, self.n_views,
+                                 members, self.track_id)
+
     def subset(self, index) -> "WindowTracklets3D":
         return WindowTracklets3D(
             self.start, self.xyz[index], self.top_z[index], self.bottom_z[index], self.valid[index], self.source[index],
@@ -198,6 +210,62 @@ class Tracks3D(_PointRows):
 
     def __repr__(self) -> str:
         return f"Tracks3D({len(self)} points, {len(np.unique(self.track_id))} tracks)"
+
+
+@dataclass(frozen=True, eq=False)
+class TargetRows:
+    """Track points inside the target stage (III-D): back-fill, gap filling, smoothing, Eq. 14.
+
+    Attributes
+    ----------
+    frame: (n,) int64, in frame order.
+    track_id: (n,) int64.
+    xyz: (n, 3) float64 centre, metres (smoothed once the smoother emitted it).
+    top_z, bottom_z: (n,) float64 heights of the body's top and bottom (NaN when unknown).
+    source: (n,) int8 source code.
+    wh: (n, C, 2) float64 width and height of the track's detection per view (raw pixels; NaN
+        where none).
+    """
+
+    frame: np.ndarray
+    track_id: np.ndarray
+    xyz: np.ndarray
+    top_z: np.ndarray
+    bottom_z: np.ndarray
+    source: np.ndarray
+    wh: np.ndarray
+
+    @classmethod
+    def of(cls, frame, track_id, xyz, top_z, bottom_z, source, wh) -> "TargetRows":
+        """Rows from array-likes, converted to the dtypes above (no copy where they already are)."""
+        return cls(np.asarray(frame, np.int64), np.asarray(track_id, np.int64), np.asarray(xyz, np.float64),
+                   np.asarray(top_z, np.float64), np.asarray(bottom_z, np.float64), np.asarray(source, np.int8),
+                   np.asarray(wh, np.float64))
+
+    @classmethod
+    def from_tracks(cls, tracks: "Tracks3D", wh: np.ndarray) -> "TargetRows":
+        """The points of ``tracks`` with their detections' sizes ``wh`` (n, C, 2)."""
+        return cls.of(tracks.frame, tracks.track_id, tracks.xyz, tracks.top_z, tracks.bottom_z, tracks.source, wh)
+
+    @classmethod
+    def concat(cls, parts: Sequence["TargetRows"]) -> "TargetRows":
+        """Row-wise concatenation of one or more parts (one part is returned as it is)."""
+        if len(parts) == 1:
+            return parts[0]
+        return cls(*(np.concatenate(c) for c in zip(*((p.frame, p.track_id, p.xyz, p.top_z, p.bottom_z, p.source, p.wh)
+                                                       for p in parts))))
+
+    def with_xyz(self, xyz: np.ndarray) -> "TargetRows":
+        """The same rows with centres ``xyz`` (n, 3) (cheaper than ``dataclasses.replace``)."""
+        return TargetRows(self.frame, self.track_id, xyz, self.top_z, self.bottom_z, self.source, self.wh)
+
+    def take(self, index) -> "TargetRows":
+        """Rows by index, mask or slice."""
+        return TargetRows(self.frame[index], self.track_id[index], self.xyz[index], self.top_z[index],
+                          self.bottom_z[index], self.source[index], self.wh[index])
+
+    def __len__(self) -> int:
+        return len(self.frame)
 
 
 @dataclass(frozen=True, eq=False)
@@ -257,8 +325,9 @@ class TrackerOutput:
             Detections.concat([p.target_boxes for p in parts]),
         )
 
-    def __bool__(self) -> bool:
-        return bool(len(self.tracks) or len(self.boxes) or len(self.target) or len(self.target_boxes))
+    def __bool__(self) -> bool:  # (array sizes, not len(): asked once per streamed frame)
+        return bool(self.tracks.frame.size or self.boxes.frame.size or self.target.frame.size
+                    or self.target_boxes.frame.size)
 
 
 @dataclass(frozen=True, eq=False)

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _compiled
+from ._kernels import windows as kernels
 from .types import WindowTracklets
 
 
@@ -36,32 +36,11 @@ def fill_missing(box: np.ndarray, observed: np.ndarray, max_extrapolate: int) ->
     box: (K, W, 4) boxes, anything where not observed; observed: (K, W) bool, each row with at
     least one True; max_extrapolate: frames the first/last box is held beyond the observations.
 
-    Returns (filled (K, W, 4) with NaN where not valid, valid (K, W) bool).
+    Returns (filled (K, W, 4) with NaN where not valid, valid (K, W) bool). One compiled loop
+    (:func:`._kernels.windows.fill_missing`; numpy reference in ``tests/reference/windows.py``).
     """
-    K, W = observed.shape
-    t = np.arange(W)
-    prev = np.maximum.accumulate(np.where(observed, t, -1), axis=1)  # last observed index <= t
-    nxt = np.minimum.accumulate(np.where(observed, t, W)[:, ::-1], axis=1)[:, ::-1]  # first observed >= t
-    # observed frames keep their box; only the missing ones (a minority) are computed, as flat indices
-    filled = box.copy()
-    valid = observed.copy()
-    miss = np.flatnonzero(~observed)
-    if len(miss):
-        p, n = prev.ravel()[miss], nxt.ravel()[miss]
-        tm = miss % W
-        hasp, hasn = p >= 0, n < W
-        inside = hasp & hasn
-        ok = inside | (~hasp & (n - tm <= max_extrapolate)) | (~hasn & (tm - p <= max_extrapolate))
-        lo = np.where(hasp, p, n)  # 'before' frames hold the first box
-        hi = np.where(hasn, n, p)  # 'after' frames hold the last box
-        a = np.where(inside, (tm - lo) / np.maximum(hi - lo, 1), 0.0)[:, None]  # inside: hi - lo >= 2
-        flat = box.reshape(K * W, 4)
-        row = miss - tm
-        vals = flat[row + lo] * (1.0 - a) + flat[row + hi] * a
-        vals[~ok] = np.nan
-        filled.reshape(K * W, 4)[miss] = vals
-        valid.ravel()[miss] = ok
-    return filled, valid
+    return kernels.fill_missing(np.ascontiguousarray(box, dtype=np.float64), np.ascontiguousarray(observed, dtype=bool),
+                                int(max_extrapolate))
 
 
 def build_window(
@@ -123,7 +102,7 @@ def build_window(
     boxes.reshape(-1, 4)[kt] = box[rows]
     observed.ravel()[kt] = True
     dets.ravel()[kt] = det[rows]
-    filled, valid = _compiled.fill_missing(boxes, observed, int(max_extrapolate))  # = fill_missing, compiled
+    filled, valid = kernels.fill_missing(boxes, observed, int(max_extrapolate))
     segs = WindowTracklets(
         start=int(start), camera=cam_of[kept], track2d=(kept + lo) if ids is None else ids[kept].astype(np.int64),
         box=filled, observed=observed, valid=valid, det=dets,

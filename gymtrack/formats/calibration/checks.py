@@ -15,7 +15,7 @@ from typing import Any, Callable, Mapping, Sequence
 import cv2
 import numpy as np
 
-from ...errors import CalibrationError
+from ...errors import CalibrationError, GymtrackWarning
 from ...geometry.camera import Camera, Rig
 from ..textfile import read_text
 
@@ -183,9 +183,9 @@ def warn_if_far(rig: Rig, source, report: CalibrationReport | None, units_hint: 
     if far > IMPLAUSIBLE_DISTANCE_M:
         msg = (
             f"{source}: a camera is {far:.0f} m from the world origin; if the translations are not in "
-            f"{units_hint}, give the units explicitly (units='mm' or 'cm')"
+            f"{units_hint}, give the units explicitly (--units mm or cm; units='mm' in Python)"
         )
-        warnings.warn(msg, stacklevel=3)
+        warnings.warn(msg, GymtrackWarning, stacklevel=3)
         if report is not None:
             report.notes.append(msg)
 

@@ -13,7 +13,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from ...errors import CalibrationError
+from ...errors import CalibrationError, GymtrackWarning
 from ...geometry.camera import Rig
 from .checks import (CalibrationFormat, CalibrationReport, as_array, build_camera, build_rig, camera_name, distortion,
                      image_size, units_scale)
@@ -107,7 +107,7 @@ def read_easymocap(
         fe.release()
     if guessed:
         msg = f"{intri}: no W_/H_ image size for {', '.join(guessed)}; guessed as twice the principal point"
-        warnings.warn(msg, stacklevel=2)
+        warnings.warn(msg, GymtrackWarning, stacklevel=2)
         if report is not None:
             report.notes.append(msg)
     if report is not None:

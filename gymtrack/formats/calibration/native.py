@@ -13,6 +13,7 @@ from typing import Any, Mapping
 import yaml
 
 from ...errors import CalibrationError
+from ..textfile import what_is
 from ...geometry.camera import Rig
 from .checks import (CalibrationFormat, as_array, build_camera, build_rig, camera_name, check_keys, distortion,
                      image_size, read_calibration_text, rotation, short_repr, units_scale)
@@ -31,7 +32,7 @@ def native_from_dict(data: Any, source: str | Path = "cameras.yaml") -> Rig:
     ``rvec`` (Rodrigues, 3); ``dist`` (4, 5 or 8 OpenCV coefficients) is optional.
     """
     if not isinstance(data, Mapping):
-        raise CalibrationError(f"expected a mapping with keys 'units' and 'cameras', got {type(data).__name__}", source=source)
+        raise CalibrationError(f"expected a mapping with keys 'units' and 'cameras', got {what_is(data, 'an empty file')}", source=source)
     check_keys(data, _NATIVE_TOP, source, "")
     scale = units_scale(data.get("units"), source, "units")
     cams = data.get("cameras")

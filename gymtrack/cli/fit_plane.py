@@ -1,0 +1,73 @@
+"""``gymtrack fit-plane``: the apparatus plane and the floor fitted from a routine's data (beyond the paper).
+
+Paper: Section III-C's vertical plane (Eq. 7), here estimated (:mod:`gymtrack.tracking.plane_fit`):
+a ``triangulation``-mode pass, the target's well-triangulated centres, a RANSAC vertical plane;
+the floor from standing people's box bottoms. Prints how far the scene's plane is from the
+fitted one; ``--write`` saves a scene.yaml with the fitted plane. ``gymtrack plane-bench`` runs
+the wrong-plane experiment of :mod:`gymtrack.eval.plane_bench` on a suite.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich.console import Console
+
+from gymtrack.cli import app
+
+console = Console()
+
+
+@app.command("fit-plane")
+def fit_plane(
+    routine: Path = typer.Argument(..., help="routine folder (scene.yaml, calibration, detections/)"),
+    min_views: int = typer.Option(3, "--min-views", help="views a target point needs to count as well triangulated"),
+    write: Optional[Path] = typer.Option(None, "--write", help="write scene.yaml with the fitted plane here"),
+) -> None:
+    """Fit the apparatus plane and the floor from the data; report the scene's plane's offset and angle."""
+    from gymtrack.formats.routine import load_routine
+    from gymtrack.formats.scene import save_scene
+    from gymtrack.tracking.plane_fit import fit_scene_planes, with_plane
+    from gymtrack.tracking.tracker import track_detections
+
+    r = load_routine(routine)
+    fit = fit_scene_planes(track_detections(r.rig, r.scene, r.detections, mode="triangulation"), r.scene, min_views)
+    console.print_json(json.dumps(fit.to_dict()))
+    if fit.plane is None:
+        console.print(f"[yellow]too few well-triangulated target points ({fit.n_target}) for a plane[/]")
+        raise typer.Exit(1)
+    if r.scene.planes:
+        console.print(f"scene plane vs fitted: offset {fit.offset:.3f} m, angle {fit.angle:.2f} deg")
+    if write is not None:
+        save_scene(with_plane(r.scene, fit.plane.plane), write)
+        console.print(f"wrote {write}")
+
+
+@app.command("plane-bench")
+def plane_bench(
+    suite: Path = typer.Option(..., "--suite", "-s", help="suite folder (simulate-suite output)"),
+    shift: float = typer.Option(0.3, "--shift", help="metres the wrong plane is shifted along its normal"),
+    turn: float = typer.Option(10.0, "--turn", help="degrees the wrong plane is turned about the vertical"),
+    out: Optional[Path] = typer.Option(None, "--out", "-o", help="write the rows as JSON here"),
+) -> None:
+    """The wrong-plane experiment: target AED with the true, shifted/turned and fitted planes."""
+    import numpy as np
+
+    from gymtrack.eval.benchmark import read_suite
+    from gymtrack.eval.plane_bench import plane_experiment
+    from gymtrack.formats.ground_truth import load_ground_truth
+    from gymtrack.formats.routine import load_routine
+
+    rows = []
+    for spec in read_suite(suite):
+        r = load_routine(spec.path)
+        gt = load_ground_truth(spec.path, r.rig.names, image_size=np.array([c.size for c in r.rig], dtype=np.float64))
+        row = {"routine": spec.name, "apparatus": spec.apparatus, "n_cam": spec.n_cam, **plane_experiment(r, gt, shift, turn)}
+        rows.append(row)
+        console.print(f"{spec.name}: AED true {row['aed_true']:.3f} wrong {row['aed_wrong']:.3f} fitted "
+                      f"{row['aed_fitted']:.3f} m; fitted plane {row['offset_m']:.3f} m, {row['angle_deg']:.2f} deg off")
+    if out is not None:
+        out.write_text(json.dumps(rows, indent=1))

@@ -1,0 +1,88 @@
+"""Compiled kernels of the triangulation stage (paper Section III-B, Eq. 3-4).
+
+:func:`cluster_points` gathers the centre, top-centre and bottom-centre pixels of every cluster
+and frame of a window, views-major, for Eq. 3 (:func:`gymtrack.geometry.primitives.triangulate_points`,
+the same solver the public :func:`gymtrack.geometry.triangulation.triangulate` runs);
+:func:`outliers` is Eq. 4. Numpy references: ``tests/reference/reconstruct.py``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ...geometry.primitives import triangulate_points
+from .sample import sample
+
+_NAN = np.nan
+
+
+@njit(cache=True)
+def cluster_points(box, observed, members):
+    """The pixels :func:`gymtrack.tracking.reconstruct.triangulate_clusters` triangulates and its observed-view
+    counts: box (K, W, 4) segment boxes (NaN where not valid), observed (K, W), members (M, C)
+    segment per cluster and camera (-1: none).
+
+    Returns u, v (C, 3 M W) centre, top-centre and bottom-centre pixels, views-major (NaN
+    where the camera has no member or the box is not valid), and n_views (M, W) int8.
+    """
+    M, C = members.shape
+    W = box.shape[1]
+    u = np.full((C, 3 * M * W), _NAN)
+    v = np.full((C, 3 * M * W), _NAN)
+    n_views = np.zeros((M, W), np.int8)
+    for m in range(M):
+        for c in range(C):
+            k = members[m, c]
+            if k < 0:
+                continue
+            for t in range(W):
+                x, y, half = box[k, t, 0], box[k, t, 1], box[k, t, 3] / 2
+                q = m * W + t
+                for p in range(3):
+                    u[c, p * M * W + q] = x
+                v[c, q] = y
+                v[c, M * W + q] = y - half
+                v[c, 2 * M * W + q] = y + half
+                if observed[k, t]:
+                    n_views[m, t] += 1
+    return u, v, n_views
+
+
+@njit(cache=True)
+def outliers(xyz, valid, space, max_speed):
+    """Eq. 4, :func:`gymtrack.tracking.reconstruct.outliers`: xyz (M, W, 3), valid (M, W), space (6,),
+    max_speed (metres per frame) -> (M,) bool, True = outlier."""
+    M, W = valid.shape
+    bad = np.zeros(M, np.bool_)
+    for m in range(M):
+        any_valid = False
+        p = -1
+        for t in range(W):
+            if not valid[m, t]:
+                continue
+            any_valid = True
+            for q in range(3):
+                x = xyz[m, t, q]
+                if not (x >= space[q] and x <= space[3 + q]):
+                    bad[m] = True
+            if p >= 0:
+                d0 = xyz[m, t, 0] - xyz[m, p, 0]
+                d1 = xyz[m, t, 1] - xyz[m, p, 1]
+                d2 = xyz[m, t, 2] - xyz[m, p, 2]
+                if np.sqrt(d0 * d0 + d1 * d1 + d2 * d2) > max_speed * (t - p):
+                    bad[m] = True
+            p = t
+        if not any_valid:
+            bad[m] = True
+    return bad
+
+
+
+def warm_up() -> None:
+    """Compile (or load) the kernels: the sample person triangulated from both views."""
+    s = sample()
+    u, v, n_views = cluster_points(s.box, s.observed, np.array([[0, 1]], np.int64))
+    X, _ = triangulate_points(s.rig.arrays.P, u, v, np.isfinite(u), 1)
+    xyz = np.ascontiguousarray(X.reshape(3, 3, 1, -1)[:, 0].transpose(1, 2, 0))
+    outliers(xyz, np.isfinite(xyz).all(axis=2), np.array([-5.0, -5.0, 0.0, 5.0, 5.0, 3.0]), 0.5)
