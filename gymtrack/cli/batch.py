@@ -31,7 +31,7 @@ def batch(
     mode: str = typer.Option("cascade", "--mode", "-m", help="cascade | triangulation | plane"),
     workers: int = typer.Option(0, "--workers", "-w", help="LocalCluster worker processes (0: one per CPU); ignored with --scheduler"),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="address of a running Dask scheduler, e.g. tcp://host:8786"),
-    force: bool = typer.Option(False, "--force", help="redo routines whose outputs are already complete"),
+    force: bool = typer.Option(False, "--force", help="redo routines whose outputs are already complete (and replace routine folders under OUT that are not gymtrack outputs)"),
     mot: bool = typer.Option(True, "--mot/--no-mot", help="eval: also score all people (MOTA, IDF1)"),
 ) -> None:
     """Run many routines on a Dask cluster (local processes by default); resumable, failures isolated."""
