@@ -26,7 +26,8 @@ from typing import Any, Callable, Iterator, Sequence
 
 from ..errors import InputError
 
-__all__ = ["dask_client", "run_tasks", "warm_numba", "numba_cache_report", "dask_runner", "TaskOutcome"]
+__all__ = ["dask_client", "run_tasks", "warm_numba", "numba_cache_folders", "numba_cache_report", "worker_reports",
+           "dask_runner", "TaskOutcome"]
 
 
 def _need_dask():
@@ -44,27 +45,29 @@ def warm_numba() -> None:
     warm_up()
 
 
-def numba_cache_dir() -> str:
-    """Where this process's numba kernels are cached (a dispatcher's cache path; $NUMBA_CACHE_DIR sets it)."""
+def numba_cache_folders() -> list[str]:
+    """The folders this process's numba kernels are cached in (each compiled dispatcher's cache path:
+    ``__pycache__`` beside its module, or under ``$NUMBA_CACHE_DIR``)."""
     import sys
 
-    for name, mod in sorted(sys.modules.items()):
-        if not name.startswith("gymtrack.tracking") or mod is None:
+    found = set()
+    for name, mod in list(sys.modules.items()):
+        if not name.startswith("gymtrack.") or mod is None:
             continue
         for obj in vars(mod).values():
             path = getattr(getattr(obj, "_cache", None), "_cache_path", None)
             if path:
-                return str(path)
-    import numba
-
-    return numba.config.CACHE_DIR or "(numba's default: __pycache__ beside each module)"
+                found.add(str(path))
+    return sorted(found)
 
 
 def numba_cache_report() -> dict:
     """Warm the kernels in this (worker) process and say where their cache is and how long it took."""
     t0 = time.perf_counter()
     warm_numba()
-    return {"host": socket.gethostname(), "pid": os.getpid(), "cache_dir": numba_cache_dir(),
+    folders = numba_cache_folders()
+    common = os.path.commonpath(folders) if folders else "(none: nothing compiled)"
+    return {"host": socket.gethostname(), "pid": os.getpid(), "cache_dir": common, "cache_folders": folders,
             "warm_up_seconds": round(time.perf_counter() - t0, 3)}
 
 
@@ -217,7 +220,8 @@ def dask_runner(workers: int | None = None, scheduler: str | None = None, log: C
             reports = worker_reports(client)
             if log:
                 for addr, rep in sorted(reports.items()):
-                    log(f"worker {addr}: numba cache {rep['cache_dir']} (warm-up {rep['warm_up_seconds']:.2f} s)")
+                    log(f"worker {addr}: numba cache {', '.join(rep['cache_folders']) or rep['cache_dir']} ("
+                        f"warm-up {rep['warm_up_seconds']:.2f} s)")
             done = run_tasks(client, fn, args, lambda o: on_done(o.index, o.result if o.error is None else o.error))
             if not done:
                 raise KeyboardInterrupt

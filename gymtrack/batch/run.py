@@ -100,7 +100,7 @@ def run_batch(source: str | Path, out: str | Path, steps: tuple[str, ...] = STEP
     source: a folder of routines or a list file (:func:`.routines.find_routines`); workers:
     LocalCluster processes (default one per CPU) when no ``scheduler`` address is given;
     force: redo complete routines; on_row: called with each finished row and the result so far;
-    log: one line per worker (its numba cache); faults: routine name -> "exit" | "raise", the
+    log: one line per worker (its numba cache); faults: routine name -> "exit" | "raise" | "hang", the
     test hook of :func:`.steps.process_routine`. Ctrl-C: the queued routines are cancelled, the
     files are written with what finished (``interrupted`` set) and KeyboardInterrupt is re-raised.
     """
@@ -134,8 +134,8 @@ def run_batch(source: str | Path, out: str | Path, steps: tuple[str, ...] = STEP
             result.workers = {a: rep for a, rep in sorted(worker_reports(client).items())}
             if log:
                 for addr, rep in result.workers.items():
-                    log(f"worker {addr} (pid {rep['pid']} on {rep['host']}): numba cache {rep['cache_dir']}, "
-                        f"warm-up {rep['warm_up_seconds']:.2f} s")
+                    log(f"worker {addr} (pid {rep['pid']} on {rep['host']}): numba cache "
+                        f"{', '.join(rep['cache_folders']) or rep['cache_dir']}, warm-up {rep['warm_up_seconds']:.2f} s")
             t0 = time.perf_counter()
             finished = run_tasks(client, process_routine, args, done, keys=[r.name.replace("/", "_") for r in routines])
             result.seconds = time.perf_counter() - t0  # the cluster's shutdown is not the routines' time
