@@ -1,5 +1,5 @@
 """One small end-to-end benchmark: a simulated suite (1 apparatus, 1 routine per n_cam, 10 s each),
-every method, in two worker processes, then the written report."""
+every method, in this process (the Dask runner: tests/test_batch.py), then the written report."""
 
 from __future__ import annotations
 

@@ -2,7 +2,7 @@
 
 ``gymtrack benchmark --suite <dir> --out <dir> [--jobs N] [--methods cascade,triangulation,...]``
 runs the methods of :mod:`gymtrack.eval.benchmark` on every routine of the suite (routines in
-parallel processes), prints the summary tables with rich and writes ``report.md``, CSV, JSON
+parallel: the batch machinery's Dask workers, ``--scheduler ADDRESS`` for a cluster), prints the summary tables with rich and writes ``report.md``, CSV, JSON
 and the Fig. 6 plots under ``--out``, plus the WILDTRACK section when the data is there.
 
 Without ``--suite`` it first simulates the default suite into ``<out>/suite`` -- the same
@@ -17,6 +17,7 @@ run fails (for CI); without it the status is 0 whatever the results.
 
 from __future__ import annotations
 
+import importlib.util
 import os
 from pathlib import Path
 from typing import Callable, Optional
@@ -88,7 +89,8 @@ def print_pose_claims(rows: list[dict]) -> list:
 def benchmark(
     out: Path = typer.Option(..., "--out", "-o", help="output folder: report.md, CSV, JSON, plots"),
     suite: Optional[Path] = typer.Option(None, "--suite", "-s", help="suite folder (simulate-suite output); absent: simulate the default suite into OUT/suite"),
-    jobs: int = typer.Option(0, "--jobs", "-j", help="parallel routines (0: one per CPU)"),
+    jobs: int = typer.Option(0, "--jobs", "-j", help="parallel routines: LocalCluster worker processes (0: one per CPU; 1: in this process)"),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="run the routines on a running Dask scheduler, e.g. tcp://host:8786 (as gymtrack batch)"),
     methods: str = typer.Option("cascade,triangulation,plane,mvpt,oracle", "--methods", "-m", help="comma-separated: cascade, triangulation, plane, mvpt, oracle"),
     # 4 = gymtrack.eval.benchmark.DEFAULT_PER_APPARATUS (kept literal: importing gymtrack.eval here slows every command)
     per_apparatus: int = typer.Option(4, "--per-apparatus", help="routines per apparatus (each seen with n_cam = 2, 3, 4) when simulating the default suite; 20 = the paper's 140 routines"),
@@ -117,7 +119,17 @@ def benchmark(
         else:
             console.print(f"no --suite: using the suite already simulated in [bold]{suite}[/]")
     specs = read_suite(suite)
-    console.print(f"{len(specs)} routines x {len(method_list)} methods, {n_jobs} parallel jobs")
+    runner = None
+    if not scheduler and n_jobs > 1 and importlib.util.find_spec("distributed") is None:
+        console.print("[yellow]note:[/] Dask is not installed (the 'batch' extra: pip install 'gymtrack[batch]'): "
+                      "running the routines one after another in this process")
+        n_jobs = 1
+    if scheduler or n_jobs > 1:
+        from gymtrack.batch.engine import dask_runner
+
+        runner = dask_runner(n_jobs, scheduler, log=lambda s: console.print("  " + s, highlight=False))
+    where = f"on the Dask scheduler {scheduler}" if scheduler else f"{n_jobs} parallel jobs"
+    console.print(f"{len(specs)} routines x {len(method_list)} methods, {where}")
     with Progress(TextColumn("[bold]benchmark"), BarColumn(), MofNCompleteColumn(), TextColumn("routines"),
                   TimeElapsedColumn(), TextColumn("{task.description}"), console=console, transient=True) as bar:
         task = bar.add_task("", total=len(specs))
@@ -125,7 +137,7 @@ def benchmark(
         def progress(done: int, total: int, name: str) -> None:
             bar.update(task, completed=done, description=name)
 
-        run = run_suite(specs, method_list, jobs=n_jobs, mot=not no_mot, progress=progress, pose=not no_pose)
+        run = run_suite(specs, method_list, jobs=n_jobs, mot=not no_mot, progress=progress, pose=not no_pose, runner=runner)
     wt = None
     if not no_wildtrack:
         from gymtrack.eval.config import DEFAULT_CONFIG

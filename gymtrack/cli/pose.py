@@ -30,26 +30,6 @@ from gymtrack.cli.report import interrupts
 console = Console()
 
 
-def simulated_model_poses(routine, result, all_tracks: bool, seed: int = 0):
-    """Run the simulated pose model on the track outputs' boxes of a simulated routine.
-
-    The target's b_buf boxes; with ``all_tracks`` also every track's per-view box where the
-    target has no b_buf (same frame, view and track). Returns a Poses2D (track ids set).
-    """
-    from gymtrack.errors import InputError
-    from gymtrack.formats.gt_keypoints import read_keypoints_3d
-    from gymtrack.pose.stage import pose_model_boxes
-    from gymtrack.simulate.pose_model import simulate_pose_model
-
-    path = routine.gt.get("keypoints_3d")
-    if path is None:
-        raise InputError("--simulated-model needs a simulated routine with gt/keypoints_3d.csv",
-                         source=Path(routine.path) / "gt" / "keypoints_3d.csv")
-    frames, person_id, joints = read_keypoints_3d(path)
-    boxes = pose_model_boxes(result, all_tracks)
-    return simulate_pose_model(routine.rig, joints, person_id, frames, boxes, seed=seed)
-
-
 def model_poses(routine, result, model, models_yaml, device, all_tracks: bool):
     """The pose model (``--model`` / ``models.yaml``) on the b_buf crops of the routine's videos -> Poses2D."""
     from gymtrack.cli.detect import build_models, open_routine_videos, stage_progress
@@ -103,9 +83,10 @@ def pose(
 ) -> None:
     """Lift 2D keypoints in the tracker's boxes to the target's 3D pose (every track's with --all-tracks)."""
     from gymtrack.errors import InputError
-    from gymtrack.formats.keypoints import read_keypoints, write_keypoints
+    from gymtrack.formats.keypoints import write_keypoints
     from gymtrack.formats.poses3d import write_poses_3d
     from gymtrack.formats.atomic import atomic_update
+    from gymtrack.pose.sources import routine_poses
     from gymtrack.pose.stage import LIFT_METHODS, lift_poses, read_track_result
 
     if lift not in LIFT_METHODS:
@@ -117,15 +98,9 @@ def pose(
     result = read_track_result(out, r.rig.names)
     if use_model:
         poses = model_poses(r, result, model, models_yaml, device, all_tracks)
-    elif simulated_model:
-        with console.status("running the simulated pose model on the boxes"):
-            poses = simulated_model_poses(r, result, all_tracks, seed)
     else:
-        kdir = keypoints if keypoints is not None else Path(routine) / "keypoints"
-        if not kdir.exists():
-            raise InputError("no 2D keypoints: add ROUTINE/keypoints/<camera>.json, give --keypoints DIR, "
-                             "or use --simulated-model on a simulated routine", source=kdir)
-        poses = read_keypoints(kdir, r.rig.names)
+        with console.status("running the simulated pose model on the boxes" if simulated_model else "reading the 2D poses"):
+            poses = routine_poses(r, result, keypoints, simulated_model, all_tracks, seed)
     with console.status(f"lifting ({lift})"):
         res = lift_poses(result, r.rig, r.scene, poses, all_tracks=all_tracks, method=lift)
     inputs = {"routine": str(routine), "lift": lift, "all_tracks": all_tracks,

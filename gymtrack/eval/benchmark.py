@@ -8,12 +8,14 @@ Paper: Section IV (Tables 3, 5, 6 and Fig. 6). Methods:
   fed to the cascade's 3D estimation (``association="oracle"``): the limit better association
   could reach, not a method.
 
-Each routine is one task of a ``concurrent.futures.ProcessPoolExecutor``: the worker reads the
-routine folder and its ground truth, runs every method, and returns one row per method with the
-additive parts of every metric (:mod:`gymtrack.eval.aggregate` pools and tabulates them). Speed is
-the tracker call alone, timed with ``time.perf_counter`` around it (file reading, GT matching
-and evaluation excluded), in the worker process -- so with ``jobs`` > 1 the methods of one routine
-share a core with other routines' work, equally for every method.
+Each routine is one task (:func:`run_routine`) of the runner :func:`run_suite` is given -- the
+batch machinery's Dask workers (:func:`gymtrack.batch.engine.dask_runner`: a LocalCluster or a
+scheduler) or this process: the task reads the routine folder and its ground truth, runs every
+method, and returns one row per method with the additive parts of every metric
+(:mod:`gymtrack.eval.aggregate` pools and tabulates them). Speed is the tracker call alone, timed
+with ``time.perf_counter`` around it (file reading, GT matching and evaluation excluded), in the
+worker process -- so with several workers the methods of one routine share a core with other
+routines' work, equally for every method.
 """
 
 from __future__ import annotations
@@ -304,6 +306,14 @@ def fig6_routines(specs: Sequence[RoutineSpec]) -> set[str]:
     return set(out.values())
 
 
+def _failed_routine(spec: RoutineSpec, methods: Sequence[str], exc: BaseException) -> dict:
+    """The rows of a routine that could not be run at all (unreadable folder, worker died)."""
+    msg = " ".join("".join(traceback.format_exception_only(type(exc), exc)).split())
+    return {"rows": [{"routine": spec.name, "apparatus": spec.apparatus, "n_cam": spec.n_cam, "seed": spec.seed,
+                      "method": m, "frames": 0, "seconds": 0.0, "error": msg} for m in methods],
+            "trajectories": None}
+
+
 def run_suite(
     specs: Sequence[RoutineSpec],
     methods: Sequence[str] = METHODS,
@@ -311,42 +321,47 @@ def run_suite(
     mot: bool = True,
     progress: Callable[[int, int, str], None] | None = None,
     pose: bool = True,
+    runner: Callable | None = None,
 ) -> BenchmarkRun:
-    """Run every method on every routine, routines in parallel processes.
+    """Run every method on every routine; one routine = one task of ``runner``.
 
-    jobs: worker processes (default ``os.cpu_count()``); 1 runs in this process.
-    progress: ``progress(done, total, routine_name)`` after each routine.
+    runner: ``runner(fn, args, on_done)`` calls ``fn(*args[i])`` for every i, wherever it likes,
+    and ``on_done(i, result_or_exception)`` as each ends -- the batch machinery's
+    :func:`gymtrack.batch.engine.dask_runner` (a LocalCluster or a Dask scheduler); None runs the
+    routines one after another in this process. The rows do not depend on where they ran.
+    jobs: the parallel workers, as recorded in the report (default ``os.cpu_count()`` with a
+    runner, 1 without). progress: ``progress(done, total, routine_name)`` after each routine.
     """
     bad = [m for m in methods if m not in METHODS]
     if bad:
         raise InputError(f"unknown method {bad[0]!r}; choose from {', '.join(METHODS)}", field="methods")
-    jobs = max(1, int(jobs or os.cpu_count() or 1))
+    jobs = max(1, int(jobs or (os.cpu_count() if runner else 1) or 1))
     want = fig6_routines(specs)
     t0 = time.perf_counter()
-    results: list[dict] = []
-    if jobs == 1 or len(specs) <= 1:
-        for k, s in enumerate(specs):
-            results.append(run_routine(s, methods, s.name in want, mot, pose))
-            if progress:
-                progress(k + 1, len(specs), s.name)
+    args = [(s, list(methods), s.name in want, mot, pose) for s in specs]
+    results: list[dict | None] = [None] * len(specs)
+    done = 0
+
+    def on_done(i: int, res) -> None:
+        nonlocal done
+        # a routine that raised (folder unreadable) or whose worker died: every method's row says why
+        results[i] = _failed_routine(specs[i], methods, res) if isinstance(res, BaseException) else res
+        done += 1
+        if progress:
+            progress(done, len(specs), specs[i].name)
+
+    if runner is None:
+        for i, a in enumerate(args):
+            try:
+                res = run_routine(*a)
+            except Exception as exc:
+                res = exc
+            on_done(i, res)
     else:
-        with ProcessPoolExecutor(max_workers=min(jobs, len(specs))) as pool:
-            futs = {pool.submit(run_routine, s, list(methods), s.name in want, mot, pose): s for s in specs}
-            for k, fut in enumerate(as_completed(futs)):
-                s = futs[fut]
-                try:
-                    results.append(fut.result())
-                except Exception as exc:  # the routine itself could not be read
-                    msg = "".join(traceback.format_exception_only(type(exc), exc)).strip()
-                    results.append({"rows": [{"routine": s.name, "apparatus": s.apparatus, "n_cam": s.n_cam, "seed": s.seed,
-                                              "method": m, "frames": 0, "seconds": 0.0, "error": msg} for m in methods],
-                                    "trajectories": None})
-                if progress:
-                    progress(k + 1, len(specs), s.name)
-    order = {s.name: i for i, s in enumerate(specs)}
-    results.sort(key=lambda r: order.get(r["rows"][0]["routine"], 0) if r["rows"] else 0)
-    rows = [row for r in results for row in r["rows"]]
-    traj = {r["rows"][0]["routine"]: r["trajectories"] for r in results if r.get("trajectories")}
+        runner(run_routine, args, on_done)
+    ran = [r for r in results if r is not None]
+    rows = [row for r in ran for row in r["rows"]]
+    traj = {r["rows"][0]["routine"]: r["trajectories"] for r in ran if r.get("trajectories")}
     return BenchmarkRun(rows, traj, list(specs), time.perf_counter() - t0, jobs)
 
 
