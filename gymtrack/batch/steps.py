@@ -94,7 +94,7 @@ def run_steps(routine: BatchRoutine, staging: Path, steps: tuple[str, ...], mode
     info: dict = {}
     if "track" in steps:
         from ..formats.outputs import write_outputs
-        from ..tracking.tracker import track_detections
+        from ..tracking.offline import track_detections
 
         _apply_fault(fault)
         result = track_detections(r.rig, r.scene, r.detections, mode=mode)
