@@ -19,9 +19,6 @@ It wires the stages; the stateful ones are objects of their own modules:
 7. the heights of the body's top and bottom, from the box tops and bottoms by the same method;
 8. the target gymnast (III-D, Eq. 13-14) (:class:`~.target.TargetStage`).
 
-:meth:`Tracker._process_window` is Fig. 2 for one window: cut, cluster, triangulate, plane
-fallback, link -- one short method each.
-
 Latency: a frame's track points and boxes are final once the second window covering it has
 been processed, i.e. ``window - 1`` frames after it arrives (9 frames with the paper's window);
 the target adds ``backfill_frames`` (its decisions wait so an identification can claim the
@@ -39,14 +36,14 @@ it links to), linked after the candidates of several views; the target back-fill
 
 Modes (the paper's ablation, Table 4): ``cascade`` (the method), ``triangulation`` (no plane
 fallback; single-tracklet clusters are dropped and opposite pairs triangulated -- close to
-UniMMT), ``plane`` (every segment goes to the plane stage). ``association="oracle"`` replaces
+UniMMT), ``plane`` (every segment goes to the plane stage); beyond the paper, ``cascade+``:
+the cascade with the floor hypothesis before the plane (:mod:`.floor`, issue 12). ``association="oracle"`` replaces
 the IoU tracker and Algorithm 1 by ground-truth ids carried in ``Detections.track_id`` (>= 0;
 -1 = a false positive, dropped and counted): the limit better association could reach. The
 plane stage then still applies its own Eq. 8 test, within each ground-truth person only.
 
-Speed (``benchmarks/bench_tracker.py``): every stage works on whole windows of columns; the
-per-frame work is one IoU matrix and, when needed, one assignment. What is skipped is counted
-in :meth:`Tracker.summary`.
+Speed (``benchmarks/bench_tracker.py``): stages work on whole windows of columns; skips are
+counted in :meth:`Tracker.summary`.
 """
 
 from __future__ import annotations
@@ -68,6 +65,7 @@ from ..geometry.plane import Plane
 from ..geometry.views import opposite_pairs
 from ._kernels import warm_up
 from .clustering import complete_linkage, tracklet_distances
+from .floor import drop_floor_ghosts, floor_split
 from .linking import WindowLinker
 from .plane_fallback import plane_stage
 from .reconstruct import cluster_members, opposite_clusters, outliers, triangulate_clusters
@@ -77,12 +75,12 @@ from .types import TrackerOutput, Tracks3D, TrackResult, WindowTracklets, Window
 from .records import BoxTable, WindowRecords
 from .windows import build_window
 
-MODES = ("cascade", "triangulation", "plane")
+MODES = ("cascade", "triangulation", "plane", "cascade+")
 ASSOCIATIONS = ("iou", "oracle")
 #: the per-window counters of :meth:`Tracker.summary` (what was used, made, dropped)
 COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulated", "segments_to_plane",
           "plane_tracklets", "segments_dropped_single", "tracklets_outliers", "links", "relinks", "plane_single_view",
-          "plane_single_view_unlinked")
+          "plane_single_view_unlinked", "floor_tracklets", "segments_to_floor")
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
 
 
@@ -93,7 +91,7 @@ class Tracker:
     ----------
     rig: the cameras; ``Detections.camera`` indexes it.
     scene: performance space, buffer, planes, target heights and every parameter (``scene.params``).
-    mode: ``cascade`` | ``triangulation`` | ``plane`` (see the module docstring).
+    mode: ``cascade`` | ``triangulation`` | ``plane`` | ``cascade+`` (see the module docstring).
     association: ``iou`` (the method) | ``oracle`` (ground-truth ids in ``track_id``).
 
     Use: ``out = tracker.update(frame, detections_of_that_frame)`` for increasing frame
@@ -110,6 +108,8 @@ class Tracker:
         if mode != "triangulation" and not scene.planes:
             raise InputError(f"mode {mode!r} needs at least one plane in scene.yaml (planes:)", field="planes")
         self.rig, self.scene, self.mode, self.association = rig, scene, mode, association
+        self.plus = mode == "cascade+"  # the beyond-the-paper additions (floor, ...) are gated on this
+        self._floor_only = np.zeros(0, np.int64)  # cascade+: this window's segments of ghost clusters
         p = self.params = scene.params
         self.width, self.step = p.window, p.step
         self.n_cameras = len(rig)
@@ -258,14 +258,14 @@ class Tracker:
         segs = self._timed("windows", self._cut, start)
         labels, D2 = self._timed("clustering", self._cluster, segs)
         tri, to_plane = self._timed("triangulation", self._triangulate, segs, labels)
-        plane = self._timed("plane", self._plane_fallback, segs, to_plane, D2)
-        self._timed("linking", self._link, start, segs, tri, plane)
+        plane, floor = self._timed("plane", self._plane_fallback, segs, to_plane, D2)
+        self._timed("linking", self._link, start, segs, tri, plane, floor)
         self._finalise(start + self.step - 1)
 
     def _timed(self, stage: str, fn: Callable, *args):
         t0 = time.perf_counter()
-        out = fn(*args)
-        self.timings[stage] += time.perf_counter() - t0
+        out, self.timings[stage] = fn(*args), self.timings[stage] - t0
+        self.timings[stage] += time.perf_counter()
         return out
 
     def _cut(self, start: int) -> WindowTracklets:
@@ -299,12 +299,12 @@ class Tracker:
         p, C = self.params, self.n_cameras
         if labels is None:
             return None, np.arange(len(segs))
-        to_plane = np.zeros(0, np.int64)
+        to_plane = self._floor_only = np.zeros(0, np.int64)
         if not len(segs):
             return None, to_plane
         members = cluster_members(labels, segs.camera, C)
         multi = (members >= 0).sum(axis=1) >= 2
-        if self.mode == "cascade":  # single tracklets and opposite pairs go to the plane
+        if self.mode != "triangulation":  # cascade(+): single tracklets and opposite pairs go to the plane
             fallback = ~multi | opposite_clusters(members, self.opposite)
             back = members[fallback].ravel()
             to_plane = np.sort(back[back >= 0])
@@ -316,16 +316,23 @@ class Tracker:
         if bad.any():
             self.counts["tracklets_outliers"] += int(bad.sum())
             tri = tri.subset(~bad)
+        if self.plus:  # the floor's ghost test (floor.drop_floor_ghosts); their segments may go to the floor only
+            tri, self._floor_only = drop_floor_ghosts(tri, segs, self.rig.arrays, p, self.scene, self.counts)
         self.counts["clusters_triangulated"] += len(tri)
         return tri, to_plane
 
     def _plane_fallback(self, segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | None
-                        ) -> WindowTracklets3D | None:
+                        ) -> tuple[WindowTracklets3D | None, WindowTracklets3D | None]:
         """Stage 5: the segments ``to_plane`` on the vertical plane (Eq. 5-9), outliers dropped;
-        ``members`` index ``segs``. None when nothing is left."""
-        if not len(to_plane):
-            return None
+        ``members`` index ``segs``. None when nothing is left. ``cascade+``: people on the floor
+        first (:func:`.floor.floor_split`), returned second."""
         p, C = self.params, self.n_cameras
+        floor = None
+        if self.plus and len(to_plane) + len(self._floor_only):
+            floor, to_plane = floor_split(segs, to_plane, D2, self.rig.arrays, p, self.scene, self.association == "oracle",
+                                          self.counts, self._floor_only)
+        if not len(to_plane):
+            return None, floor
         sub = segs.subset(to_plane)
         plane_labels = None
         if self.association == "oracle":
@@ -339,20 +346,20 @@ class Tracker:
         pl = plane_stage(sub, self.rig, self.plane_arrays, p.cluster_plane, plane_labels, apart, single)
         self.counts["segments_to_plane"] += len(to_plane)
         if not len(pl):
-            return None
+            return None, floor
         bad = outliers(pl.xyz, pl.valid, self.space, p.max_speed)
         if bad.any():
             self.counts["tracklets_outliers"] += int(bad.sum())
             pl = pl.subset(~bad)
         pl = pl.with_members(np.where(pl.members >= 0, to_plane[np.maximum(pl.members, 0)], -1))  # index segs
         self.counts["plane_tracklets"] += len(pl)
-        return pl
+        return pl, floor
 
     def _link(self, start: int, segs: WindowTracklets, tri: WindowTracklets3D | None,
-              plane: WindowTracklets3D | None) -> None:
+              plane: WindowTracklets3D | None, floor: WindowTracklets3D | None = None) -> None:
         """Stage 6: cross-window linking (one-view plane tracklets only continue tracks); the
         window's points and boxes are kept until final."""
-        parts = [x for x in (tri, plane) if x is not None]
+        parts = [x for x in (tri, floor, plane) if x is not None]
         cur = WindowTracklets3D.concat(parts) if parts else WindowTracklets3D.empty(start, self.width, self.n_cameras)
         solo = np.zeros(len(cur), bool)  # one-view plane tracklets: they may only continue a track
         if plane is not None:
