@@ -50,7 +50,7 @@ __all__ = [
     "table5", "table6", "Claim", "ratios", "claims",
 ]
 
-METHODS: tuple[str, ...] = ("cascade", "triangulation", "plane", "mvpt", "oracle")
+METHODS: tuple[str, ...] = ("cascade", "triangulation", "plane", "mvpt", "oracle", "cascade+")
 ABLATION: tuple[str, ...] = ("cascade", "triangulation", "plane")
 N_CAMS: tuple[int, ...] = (2, 3, 4)
 

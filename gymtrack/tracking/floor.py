@@ -108,8 +108,9 @@ def floor_stage(segs: WindowTracklets, rig: RigArrays, threshold: float, space: 
     lone = size[cl] == 1
     n_ok = np.maximum(ok.sum(1), 1)[:, None]
     mean_foot = np.where(ok[..., None], np.nan_to_num(foot), 0.0).sum(1) / n_ok  # (K, 2); 0 where none (not floorish)
-    outside = ~((mean_foot[:, 0] >= space[0]) & (mean_foot[:, 0] <= space[3])
-                & (mean_foot[:, 1] >= space[1]) & (mean_foot[:, 1] <= space[4]))
+    # alone, the floor is sure only if the feet's ray never crosses the performance space (else
+    # the feet may be in the air inside it: the apparatus plane's case)
+    outside = ~_crosses(rig.centres[segs.camera], np.c_[mean_foot, np.zeros(K)], space)
     take = floorish & (~lone | outside)
     groups = np.unique(cl[take])
     M = len(groups)
@@ -134,6 +135,17 @@ def floor_stage(segs: WindowTracklets, rig: RigArrays, threshold: float, space: 
     bottom = np.where(valid, 0.0, np.nan)
     return WindowTracklets3D(segs.start, xyz, top, bottom, valid, source, n_views, members,
                              np.full(M, -1, np.int64)), used
+
+
+def _crosses(a: np.ndarray, b: np.ndarray, box: np.ndarray) -> np.ndarray:
+    """(n,) bool: the segments ``a`` -> ``b`` (n, 3) cross the box (6,) ``[x0, y0, z0, x1, y1, z1]``
+    (slab test)."""
+    d = b - a
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t0, t1 = (box[:3] - a) / d, (box[3:] - a) / d
+    lo = np.nan_to_num(np.minimum(t0, t1), nan=-np.inf).max(1)
+    hi = np.nan_to_num(np.maximum(t0, t1), nan=np.inf).min(1)
+    return (lo <= hi) & (hi >= 0) & (lo <= 1)
 
 
 def _fill(xyz: np.ndarray, top: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
