@@ -96,12 +96,12 @@ def test_ghost_test_drops_a_pair_standing_apart_on_the_floor():
     scene = simple_scene()
     counts = {"floor_ghosts": 0}
     ghost = cluster(0, 3, 0.7)  # view 0 of person 1 with view 1 of person 2, floating
-    kept, segs_out = drop_floor_ghosts(ghost, segs, rig.arrays, P, scene, counts)
+    kept, segs_out = drop_floor_ghosts(ghost, segs, rig.arrays, [], P, scene, counts)
     assert len(kept) == 0 and segs_out.tolist() == [0, 3] and counts["floor_ghosts"] == 1
     real = cluster(0, 1, 0.7)  # the same person's views agree on the floor: kept
-    assert len(drop_floor_ghosts(real, segs, rig.arrays, P, scene, counts)[0]) == 1
+    assert len(drop_floor_ghosts(real, segs, rig.arrays, [], P, scene, counts)[0]) == 1
     on_floor = cluster(0, 3, 0.0)  # bottom on the floor: not judged
-    assert len(drop_floor_ghosts(on_floor, segs, rig.arrays, P, scene, counts)[0]) == 1
+    assert len(drop_floor_ghosts(on_floor, segs, rig.arrays, [], P, scene, counts)[0]) == 1
 
 
 def test_cascade_plus_tracks_a_walker_off_the_plane():

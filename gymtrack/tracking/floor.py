@@ -42,14 +42,8 @@ MIN_DOWN = 1e-3  #: the bottom ray must point down at least this much (z of the 
 def floor_candidates(segs: WindowTracklets, rig: RigArrays) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Floor candidates of the segments: ``foot`` (K, W, 2), ``height`` (K, W) and
     ``plausible`` (K, W) bool (valid box, bottom ray down, height of a body)."""
-    cam = segs.camera
-    c = rig.centres[cam][:, None, :]  # (K, 1, 3)
-    back = rig.back[cam][:, None]  # (K, 1, 3, 3)
-
-    def rays(uv):  # Eq. 6 for (K, W, 2) pixels -> (K, W, 3)
-        h = np.concatenate([uv, np.ones(uv.shape[:-1] + (1,))], axis=-1)
-        return (back @ h[..., None])[..., 0]
-
+    c = rig.centres[segs.camera][:, None, :]  # (K, 1, 3)
+    rays = _rays(segs, rig)
     with np.errstate(invalid="ignore", divide="ignore"):
         d = rays(segs.points("bottom"))
         t = -c[..., 2] / d[..., 2]  # Eq. 7 with the floor z = 0
@@ -62,6 +56,16 @@ def floor_candidates(segs: WindowTracklets, rig: RigArrays) -> tuple[np.ndarray,
         down = d[..., 2] / np.linalg.norm(d, axis=-1) < -MIN_DOWN
         ok = segs.valid & down & (height >= MIN_HEIGHT) & (height <= MAX_HEIGHT) & np.isfinite(foot).all(-1)
     return foot, height, ok
+
+
+def _rays(segs: WindowTracklets, rig: RigArrays):
+    """Eq. 6 for the segments' (K, W, 2) pixels -> (K, W, 3) world directions."""
+    back = rig.back[segs.camera][:, None]  # (K, 1, 3, 3)
+
+    def rays(uv):
+        h = np.concatenate([uv, np.ones(uv.shape[:-1] + (1,))], axis=-1)
+        return (back @ h[..., None])[..., 0]
+    return rays
 
 
 def floor_distances(foot: np.ndarray, ok: np.ndarray, camera: np.ndarray) -> np.ndarray:
@@ -137,6 +141,24 @@ def floor_stage(segs: WindowTracklets, rig: RigArrays, threshold: float, space: 
                              np.full(M, -1, np.int64)), used
 
 
+def _plane_distance(sub: WindowTracklets, rig: RigArrays, planes) -> np.ndarray:
+    """(n,) Eq. 8 between the box-centre candidates of the segment pairs ``sub`` (2n: 0-1, 2-3,
+    ...) on the apparatus planes, the smallest over the planes (inf without a shared frame)."""
+    from ..geometry.plane import intersect_rays_plane
+
+    d = _rays(sub, rig)(sub.points("centre"))
+    o = rig.centres[sub.camera][:, None, :]
+    best = np.full(len(sub) // 2, np.inf)
+    for plane in planes:
+        X, _ = intersect_rays_plane(o, d, plane)
+        diff = X[0::2] - X[1::2]
+        both = sub.valid[0::2] & sub.valid[1::2] & np.isfinite(diff).all(-1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            m = np.where(both, np.sqrt(np.nan_to_num((diff * diff).sum(-1))), 0.0).sum(1) / both.sum(1)
+        best = np.fmin(best, np.nan_to_num(m, nan=np.inf))
+    return best
+
+
 def _crosses(a: np.ndarray, b: np.ndarray, box: np.ndarray) -> np.ndarray:
     """(n,) bool: the segments ``a`` -> ``b`` (n, 3) cross the box (6,) ``[x0, y0, z0, x1, y1, z1]``
     (slab test)."""
@@ -206,15 +228,16 @@ def floor_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | No
 AIR = 0.25  #: metres: a body whose bottom is higher than this has left the floor
 
 
-def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig: RigArrays, params, scene, counts: dict
-                      ) -> tuple[WindowTracklets3D | None, np.ndarray]:
+def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig: RigArrays, planes, params, scene,
+                      counts: dict) -> tuple[WindowTracklets3D | None, np.ndarray]:
     """``cascade+``: the two-view triangulated clusters the floor says are ghosts (a wrong pair
     of two people's segments triangulates to a short body floating above the floor).
 
     A cluster of two views whose triangulated bottom is in the air (mean ``bottom_z`` > ``AIR``)
     is a ghost when it lies outside the performance space (off the apparatus nobody's feet leave
     the floor) or when both views' floor candidates are plausible and stand farther apart than
-    the plane threshold (each view sees someone standing elsewhere). Returns the clusters kept
+    the plane threshold (each view sees someone standing elsewhere) while their candidates on
+    the apparatus planes (Eq. 7-8, ``planes``) disagree too (a gymnast in the air is on them). Returns the clusters kept
     and the ghosts' segments (indices into ``segs``, for the floor stage only).
     """
     none = np.zeros(0, np.int64)
@@ -237,7 +260,10 @@ def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig:
     both = ok[0::2] & ok[1::2]
     with np.errstate(invalid="ignore"):
         dist = np.where(both, np.sqrt(np.nan_to_num((d * d).sum(-1))), 0.0).sum(1) / both.sum(1)
-    ghost = outside | (floorish & (np.nan_to_num(dist, nan=np.inf) > params.cluster_plane))
+    far = floorish & (np.nan_to_num(dist, nan=np.inf) > params.cluster_plane)
+    if far.any() and len(planes):
+        far &= _plane_distance(sub, rig, planes) > params.cluster_plane
+    ghost = outside | far
     if not ghost.any():
         return tri, none
     bad = np.zeros(len(tri), bool)

@@ -264,8 +264,8 @@ class Tracker:
 
     def _timed(self, stage: str, fn: Callable, *args):
         t0 = time.perf_counter()
-        out, self.timings[stage] = fn(*args), self.timings[stage] - t0
-        self.timings[stage] += time.perf_counter()
+        out = fn(*args)
+        self.timings[stage] += time.perf_counter() - t0
         return out
 
     def _cut(self, start: int) -> WindowTracklets:
@@ -316,8 +316,8 @@ class Tracker:
         if bad.any():
             self.counts["tracklets_outliers"] += int(bad.sum())
             tri = tri.subset(~bad)
-        if self.plus:  # the floor's ghost test (floor.drop_floor_ghosts); their segments may go to the floor only
-            tri, self._floor_only = drop_floor_ghosts(tri, segs, self.rig.arrays, p, self.scene, self.counts)
+        if self.plus:  # the floor's ghost test; a ghost's segments may go to the floor only
+            tri, self._floor_only = drop_floor_ghosts(tri, segs, self.rig.arrays, self.planes, p, self.scene, self.counts)
         self.counts["clusters_triangulated"] += len(tri)
         return tri, to_plane
 
