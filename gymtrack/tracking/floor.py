@@ -100,6 +100,8 @@ def floor_stage(segs: WindowTracklets, rig: RigArrays, threshold: float, space: 
     foot, height, ok = floor_candidates(segs, rig)
     # a candidate speaks for the floor only if most of its observed frames are plausible
     floorish = (ok & segs.observed).sum(1) * 2 > segs.observed.sum(1)
+    if not floorish.any():
+        return WindowTracklets3D.empty(segs.start, W, C), used
     D = floor_distances(foot, ok, segs.camera)
     D[~floorish, :] = np.inf
     D[:, ~floorish] = np.inf
@@ -114,27 +116,24 @@ def floor_stage(segs: WindowTracklets, rig: RigArrays, threshold: float, space: 
     mean_foot = np.where(ok[..., None], np.nan_to_num(foot), 0.0).sum(1) / n_ok  # (K, 2); 0 where none (not floorish)
     # alone, the floor is sure only if the feet's ray never crosses the performance space (else
     # the feet may be in the air inside it: the apparatus plane's case)
-    outside = ~_crosses(rig.centres[segs.camera], np.c_[mean_foot, np.zeros(K)], space)
+    outside = ~_crosses(rig.centres[segs.camera], np.column_stack([mean_foot, np.zeros(K)]), space)
     take = floorish & (~lone | outside)
-    groups = np.unique(cl[take])
+    idx = np.flatnonzero(take)  # (every member of a group of two or more is floorish: the rest are apart)
+    groups, gi = np.unique(cl[idx], return_inverse=True)
     M = len(groups)
-    xyz = np.full((M, W, 3), np.nan)
-    top = np.full((M, W), np.nan)
     members = np.full((M, C), -1, np.int64)
-    n_views = np.zeros((M, W), np.int8)
-    for m, g in enumerate(groups.tolist()):  # Eq. 9: average the members' candidates
-        idx = np.flatnonzero(cl == g)
-        members[m, segs.camera[idx]] = idx
-        o = ok[idx]
-        n = o.sum(0)
-        n_views[m] = (o & segs.observed[idx]).sum(0)
-        with np.errstate(invalid="ignore"):
-            xy = np.where(o[..., None], foot[idx], 0.0).sum(0) / n[:, None]
-            h = np.where(o, height[idx], 0.0).sum(0) / n
-        xyz[m, :, :2], xyz[m, :, 2], top[m] = xy, h / 2, h
-        used[idx] = True
-    valid = np.isfinite(top)
-    xyz, top, valid = _fill(xyz, top, valid)
+    members[gi, segs.camera[idx]] = idx
+    used[idx] = True
+    # Eq. 9: average the members' candidates, as matrix products with the (M, n) membership
+    A = (gi[None, :] == np.arange(M)[:, None]).astype(np.float64)
+    o = ok[idx]
+    n = A @ o
+    n_views = (A @ (o & segs.observed[idx])).astype(np.int8)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        xy = np.einsum("mn,nwk->mwk", A, np.where(o[..., None], foot[idx], 0.0)) / n[..., None]
+        top = (A @ np.where(o, height[idx], 0.0)) / n
+    valid = n > 0
+    xyz = np.concatenate([xy, top[..., None] / 2], axis=-1)
     source = np.where(n_views > 0, PLANE, INTERPOLATED).astype(np.int8)
     bottom = np.where(valid, 0.0, np.nan)
     return WindowTracklets3D(segs.start, xyz, top, bottom, valid, source, n_views, members,
@@ -168,26 +167,6 @@ def _crosses(a: np.ndarray, b: np.ndarray, box: np.ndarray) -> np.ndarray:
     lo = np.nan_to_num(np.minimum(t0, t1), nan=-np.inf).max(1)
     hi = np.nan_to_num(np.maximum(t0, t1), nan=np.inf).min(1)
     return (lo <= hi) & (hi >= 0) & (lo <= 1)
-
-
-def _fill(xyz: np.ndarray, top: np.ndarray, valid: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Interpolate inner gaps of each tracklet (M, W) linearly (as the plane stage covers every
-    frame between a member's observations)."""
-    M, W = valid.shape
-    if valid.all() or not valid.any():
-        return xyz, top, valid
-    f = np.arange(W)
-    out_valid = valid.copy()
-    for m in np.flatnonzero(~valid.all(1) & valid.any(1)).tolist():
-        v = valid[m]
-        a, b = np.flatnonzero(v)[[0, -1]]
-        gap = ~v & (f > a) & (f < b)
-        if gap.any():
-            for k in range(3):
-                xyz[m, gap, k] = np.interp(f[gap], f[v], xyz[m, v, k])
-            top[m, gap] = np.interp(f[gap], f[v], top[m, v])
-            out_valid[m, gap] = True
-    return xyz, top, out_valid
 
 
 def floor_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | None, rig: RigArrays, params, scene,
