@@ -249,3 +249,21 @@ def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig:
     bad[cand[ghost]] = True
     counts["floor_ghosts"] += int(ghost.sum())
     return tri.subset(~bad), np.sort(pair[ghost].ravel())
+
+
+def solo_inside(pl: WindowTracklets3D, space: np.ndarray, counts: dict) -> WindowTracklets3D:
+    """``cascade+`` (issue 12 item 5, the target's hand-over): a one-view plane tracklet (it may
+    only continue a track) is kept only while its points stay inside the performance space
+    (``space`` (6,)): the apparatus plane holds only there, so a view left alone cannot carry a
+    track -- the target's after a dismount -- onto someone walking away from the apparatus."""
+    solo = (pl.members >= 0).sum(1) == 1
+    if not solo.any():
+        return pl
+    x, y = pl.xyz[..., 0], pl.xyz[..., 1]
+    with np.errstate(invalid="ignore"):
+        out = pl.valid & ~((x >= space[0]) & (x <= space[3]) & (y >= space[1]) & (y <= space[4]))
+    drop = solo & out.any(1)
+    if drop.any():
+        counts["plane_single_view_outside"] += int(drop.sum())
+        pl = pl.subset(~drop)
+    return pl

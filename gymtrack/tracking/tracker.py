@@ -19,8 +19,7 @@ It wires the stages; the stateful ones are objects of their own modules:
 7. the heights of the body's top and bottom, from the box tops and bottoms by the same method;
 8. the target gymnast (III-D, Eq. 13-14) (:class:`~.target.TargetStage`).
 
-Latency: a frame's track points and boxes are final once the second window covering it has
-been processed, i.e. ``window - 1`` frames after it arrives (9 frames with the paper's window);
+Latency: a frame's track points and boxes are final ``window - 1`` frames after it arrives;
 the target adds ``backfill_frames`` (its decisions wait so an identification can claim the
 frames it looked back on, :class:`~.identify.TargetBackfill`) and the smoothing half-window (2
 frames), more only at the end of a target segment (see :class:`~.smoothing.TargetSmoother`).
@@ -65,7 +64,7 @@ from ..geometry.plane import Plane
 from ..geometry.views import opposite_pairs
 from ._kernels import warm_up
 from .clustering import complete_linkage, tracklet_distances
-from .floor import drop_floor_ghosts, floor_split
+from .floor import drop_floor_ghosts, floor_split, solo_inside
 from .linking import WindowLinker
 from .plane_fallback import plane_stage
 from .reconstruct import cluster_members, opposite_clusters, outliers, triangulate_clusters
@@ -80,7 +79,8 @@ ASSOCIATIONS = ("iou", "oracle")
 #: the per-window counters of :meth:`Tracker.summary` (what was used, made, dropped)
 COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulated", "segments_to_plane",
           "plane_tracklets", "segments_dropped_single", "tracklets_outliers", "links", "relinks", "plane_single_view",
-          "plane_single_view_unlinked", "floor_tracklets", "segments_to_floor")
+          "plane_single_view_unlinked", "floor_tracklets", "segments_to_floor", "floor_ghosts",
+          "segments_dropped_ghost", "plane_single_view_outside")
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
 
 
@@ -337,11 +337,9 @@ class Tracker:
         plane_labels = None
         if self.association == "oracle":
             plane_labels = np.unique(sub.track2d // C, return_inverse=True)[1]
-        # beyond the paper: two segments the epipolar test (Eq. 2) says are different people
-        # may not be fused on the plane either (their centre rays can still meet there: a phantom)
+        # beyond the paper: segments Eq. 2 says are different people are not fused on the plane
         apart = None if D2 is None else D2[np.ix_(to_plane, to_plane)] >= p.cluster_2d
-        # beyond the paper: a view left alone may continue, on the plane, the 3D track its 2D
-        # track already belongs to (kept by linking only if it links to that track)
+        # beyond the paper: a view left alone may continue, on the plane, its 2D track's 3D track
         single = self.linker.may_continue_alone(sub.track2d)
         pl = plane_stage(sub, self.rig, self.plane_arrays, p.cluster_plane, plane_labels, apart, single)
         self.counts["segments_to_plane"] += len(to_plane)
@@ -352,6 +350,8 @@ class Tracker:
             self.counts["tracklets_outliers"] += int(bad.sum())
             pl = pl.subset(~bad)
         pl = pl.with_members(np.where(pl.members >= 0, to_plane[np.maximum(pl.members, 0)], -1))  # index segs
+        if self.plus:  # the target's hand-over: one view alone only inside the performance space
+            pl = solo_inside(pl, self.scene.performance_space, self.counts)
         self.counts["plane_tracklets"] += len(pl)
         return pl, floor
 
