@@ -60,11 +60,10 @@ def floor_candidates(segs: WindowTracklets, rig: RigArrays) -> tuple[np.ndarray,
 
 def _rays(segs: WindowTracklets, rig: RigArrays):
     """Eq. 6 for the segments' (K, W, 2) pixels -> (K, W, 3) world directions."""
-    back = rig.back[segs.camera][:, None]  # (K, 1, 3, 3)
+    back = rig.back[segs.camera]  # (K, 3, 3)
 
     def rays(uv):
-        h = np.concatenate([uv, np.ones(uv.shape[:-1] + (1,))], axis=-1)
-        return (back @ h[..., None])[..., 0]
+        return np.einsum("kij,kwj->kwi", back[:, :, :2], uv) + back[:, None, :, 2]
     return rays
 
 
