@@ -23,10 +23,7 @@ Latency: a frame's track points and boxes are final ``window - 1`` frames after 
 the target adds ``backfill_frames`` (its decisions wait so an identification can claim the
 frames it looked back on, :class:`~.identify.TargetBackfill`) and the smoothing half-window (2
 frames), more only at the end of a target segment (see :class:`~.smoothing.TargetSmoother`).
-Memory is bounded on an endless stream: the tracker keeps only live 2D tracks, the boxes of
-frames not yet final, the previous window's 3D tracklets, the 3D records of frames not yet
-final, the target's last ``identify_frames`` frames and the ``backfill_frames`` held back
-(:meth:`Tracker.state_size`).
+Memory is bounded on an endless stream (what is held: :meth:`Tracker.state_size`).
 
 Beyond the paper (README, "Beyond the paper"): lost tracks re-link across ``relink_frames``;
 segments Eq. 2 separates are never fused on the plane; a view left alone may continue, on the
@@ -36,7 +33,7 @@ it links to), linked after the candidates of several views; the target back-fill
 Modes (the paper's ablation, Table 4): ``cascade`` (the method), ``triangulation`` (no plane
 fallback; single-tracklet clusters are dropped and opposite pairs triangulated -- close to
 UniMMT), ``plane`` (every segment goes to the plane stage); beyond the paper, ``cascade+``:
-the cascade with the floor hypothesis before the plane (:mod:`.floor`, issue 12). ``association="oracle"`` replaces
+the cascade with the floor hypothesis (:mod:`.floor`, issue 12). ``association="oracle"`` replaces
 the IoU tracker and Algorithm 1 by ground-truth ids carried in ``Detections.track_id`` (>= 0;
 -1 = a false positive, dropped and counted): the limit better association could reach. The
 plane stage then still applies its own Eq. 8 test, within each ground-truth person only.
@@ -80,7 +77,7 @@ ASSOCIATIONS = ("iou", "oracle")
 COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulated", "segments_to_plane",
           "plane_tracklets", "segments_dropped_single", "tracklets_outliers", "links", "relinks", "plane_single_view",
           "plane_single_view_unlinked", "floor_tracklets", "segments_to_floor", "floor_ghosts",
-          "segments_dropped_ghost", "plane_single_view_outside")
+          "segments_dropped_ghost", "plane_single_view_outside", "links_2d")
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
 
 
@@ -125,7 +122,7 @@ class Tracker:
         warm_up()  # numba's compile / cache load of every kernel: once per process, never tracking time
         self.iou = IoUTracker(p.iou_threshold, p.max_age)
         self.counts: dict = defaultdict(int)
-        self.linker = WindowLinker(p.step, p.link_3d, p.relink_frames, p.max_speed, self.counts)
+        self.linker = WindowLinker(p.step, p.link_3d, p.relink_frames, p.max_speed, self.counts, by_2d=self.plus)
         self.target = TargetStage(rig, scene)
         # stream position
         self.first_frame: int | None = None
@@ -350,7 +347,7 @@ class Tracker:
             self.counts["tracklets_outliers"] += int(bad.sum())
             pl = pl.subset(~bad)
         pl = pl.with_members(np.where(pl.members >= 0, to_plane[np.maximum(pl.members, 0)], -1))  # index segs
-        if self.plus:  # the target's hand-over: one view alone only inside the performance space
+        if self.plus:  # the target's hand-over: one view alone only inside S_perf
             pl = solo_inside(pl, self.scene.performance_space, self.counts)
         self.counts["plane_tracklets"] += len(pl)
         return pl, floor
@@ -364,7 +361,9 @@ class Tracker:
         solo = np.zeros(len(cur), bool)  # one-view plane tracklets: they may only continue a track
         if plane is not None:
             solo[len(cur) - len(plane):] = (plane.members >= 0).sum(axis=1) == 1
-        cur = self.linker.step(cur, segs.track2d, solo)
+        floor_rows = np.zeros(len(cur), bool)  # cascade+: the floor tracklets, after the triangulated ones
+        floor_rows[len(tri or ()):][:len(floor or ())] = True
+        cur = self.linker.step(cur, segs.track2d, solo, floor_rows)
         self.records.add(cur, segs, self._window_index)
         self._window_index += 1
         self._next_start = start + self.step
