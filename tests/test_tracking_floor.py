@@ -129,3 +129,25 @@ def test_one_view_continuation_only_inside_the_performance_space():
     counts = {"plane_single_view_outside": 0}
     kept = solo_inside(pl, np.array([-3.0, -3.0, 0.0, 3.0, 3.0, 4.5]), counts)
     assert kept.members.tolist() == [[0, -1], [2, 3]] and counts["plane_single_view_outside"] == 1
+
+
+def test_floor_tracklet_continues_the_track_of_its_views_2d_tracks():
+    from collections import defaultdict
+
+    from gymtrack.tracking.linking import WindowLinker
+
+    def window(start, x):
+        xyz = np.zeros((1, 10, 3))
+        xyz[..., 0] = x
+        v = np.ones((1, 10), bool)
+        return WindowTracklets3D(start, xyz, np.full((1, 10), 1.8), np.zeros((1, 10)), v, np.ones((1, 10), np.int8),
+                                 np.full((1, 10), 2, np.int8), np.array([[0, 1]]), np.full(1, -1))
+
+    for by_2d, floor, same in ((True, True, True), (True, False, False), (False, True, False)):
+        counts = defaultdict(int)
+        linker = WindowLinker(5, 0.6, 0, 1.0, counts, by_2d=by_2d)
+        track2d = np.array([10, 11])
+        a = linker.step(window(0, 0.0), track2d, np.zeros(1, bool), np.zeros(1, bool))
+        b = linker.step(window(5, 3.0), track2d, np.zeros(1, bool), np.array([floor]))  # 3 m away: no 3D link
+        assert (a.track_id[0] == b.track_id[0]) == same
+        assert counts["links_2d"] == int(same)
