@@ -84,7 +84,9 @@ class Params(_Strict):
     max_gap: int = Field(7, ge=0, description="target gaps up to this many frames are interpolated")
     box_scale: float = Field(1.3, ge=1.0, description="alpha of Eq. 14")
     opposite_angle_deg: float = Field(150.0, gt=90, le=180)
-    # mode cascade+ (beyond the paper): two-view clusters fused with the plane by their uncertainty
+    # mode cascade+ (beyond the paper), experimental: two-view clusters fused with the plane by their
+    # uncertainty. Off by default: on the benchmark it doubled the n_cam = 2 failure rate and halved the speed
+    fuse_plane: bool = Field(False, description="cascade+ only: fuse two-view clusters with the plane (experimental)")
     plane_sigma: float = Field(0.25, gt=0, description="metres: how far the body's centre strays from the "
                                "apparatus plane along its normal (the plane prior of cascade+)")
     pixel_sigma: float = Field(2.0, gt=0, description="pixels: the detector's box-centre noise (cascade+)")

@@ -98,6 +98,7 @@ def benchmark(
     wildtrack: Optional[Path] = typer.Option(None, "--wildtrack", help="WILDTRACK folder for the real-data section (skipped with a note if absent; default: gymtrack.eval.config's, ../shared/data/wildtrack)"),
     no_wildtrack: bool = typer.Option(False, "--no-wildtrack", help="skip the real-data section"),
     no_mot: bool = typer.Option(False, "--no-mot", help="skip the all-people MOT metrics (faster)"),
+    no_dropout: bool = typer.Option(False, "--no-dropout", help="skip the camera drop-out section (gymtrack.eval.dropout)"),
     no_pose: bool = typer.Option(False, "--no-pose", help="skip the target's 3D pose (Fig. 7 table, lifting ablation)"),
     mvor: Optional[Path] = typer.Option(None, "--mvor", help="MVOR folder for the real-keypoints pose section (default: $GYMTRACK_MVOR or shared/data/mvor above the project; skipped with a note if absent)"),
     check: bool = typer.Option(False, "--check", help="exit with status 1 when a target (claim) fails or a run fails"),
@@ -138,6 +139,13 @@ def benchmark(
             bar.update(task, completed=done, description=name)
 
         run = run_suite(specs, method_list, jobs=n_jobs, mot=not no_mot, progress=progress, pose=not no_pose, runner=runner)
+    drop = None
+    if not no_dropout:
+        from gymtrack.eval.dropout import dropout_markdown, run_dropout
+
+        console.print("camera drop-out section ...")
+        rows = run_dropout(specs)
+        drop = (dropout_markdown(rows), rows)
     wt = None
     if not no_wildtrack:
         from gymtrack.eval.config import DEFAULT_CONFIG
@@ -156,7 +164,8 @@ def benchmark(
         mv = run_mvor_pose(mvor, log=lambda s: console.print("  " + s))
         if not mv.get("available"):
             console.print(f"[yellow]{mv['note']}[/]")
-    files = write_benchmark(run, out, meta={"suite": str(suite), "methods": ", ".join(method_list)}, wildtrack=wt, mvor=mv)
+    files = write_benchmark(run, out, meta={"suite": str(suite), "methods": ", ".join(method_list)}, wildtrack=wt, mvor=mv,
+                             dropout=drop)
     found = print_summary(run.rows)
     if not no_pose:
         found = found + print_pose_claims(run.rows)

@@ -366,8 +366,10 @@ def run_suite(
 
 
 def write_benchmark(run: BenchmarkRun, out: str | Path, meta: dict | None = None, wildtrack: dict | None = None,
-                    mvor: dict | None = None) -> dict[str, Path]:
-    """Write the report, tables, JSON and the Fig. 6 plots of a run under ``out`` (with the pose section)."""
+                    mvor: dict | None = None, dropout: tuple[str, list[dict]] | None = None) -> dict[str, Path]:
+    """Write the report, tables, JSON and the Fig. 6 plots of a run under ``out`` (with the pose
+    section; ``dropout``: the camera drop-out section's markdown and rows, :mod:`.dropout`, also
+    written to ``dropout.csv``)."""
     from .pose_bench import pose_markdown, pose_tables
     from .render import plot_target_trajectories, write_csv, write_report
     from .wildtrack import wildtrack_markdown
@@ -389,7 +391,10 @@ def write_benchmark(run: BenchmarkRun, out: str | Path, meta: dict | None = None
             break
     meta = {"routines": len(run.specs), "parallel jobs": run.jobs, "CPUs": os.cpu_count(), "wall seconds": round(run.seconds, 1),
             **(meta or {})}
-    extra = "\n\n".join(x for x in (pose_markdown(run.rows, mvor), wildtrack_markdown(wildtrack) if wildtrack else None) if x)
+    extra = "\n\n".join(x for x in (pose_markdown(run.rows, mvor), wildtrack_markdown(wildtrack) if wildtrack else None,
+                                     dropout[0] if dropout is not None else None) if x)
     files = write_report(out, run.rows, meta, plots, extra, wildtrack)
     files["pose"] = write_csv(out / "pose_fig7.csv", pose_tables(run.rows)["fig7"])
+    if dropout is not None and dropout[1]:
+        files["dropout"] = write_csv(out / "dropout.csv", dropout[1])
     return files

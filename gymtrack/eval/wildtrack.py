@@ -62,7 +62,7 @@ class WildtrackSetup:
     gate: float = 1.0
     min_tracklet_boxes: int = 5
     limit: int | None = None  #: annotation files to read (None: all 400)
-    modes: tuple[str, ...] = ("cascade", "triangulation", "plane")
+    modes: tuple[str, ...] = ("cascade", "cascade+", "triangulation", "plane")
 
 
 def noisy_detections(det: Detections, rng: np.random.Generator, setup: WildtrackSetup, image_size=(1920, 1080)) -> tuple[Detections, dict]:

@@ -196,8 +196,14 @@ class WindowLinker:
     (ended ones until the target stage forgets them).
     """
 
-    def __init__(self, window_step: int, link_3d: float, relink_frames: int, max_speed: float, counts: dict):
+    def __init__(self, window_step: int, link_3d: float, relink_frames: int, max_speed: float, counts: dict,
+                 by_2d: bool = False):
         self.window_step, self.link_3d = int(window_step), float(link_3d)
+        # cascade+: a floor tracklet whose views' 2D tracks all belonged to one track of the
+        # previous window continues it whatever its 3D distance (the hypothesis changed -- plane
+        # to floor after a landing -- not the person)
+        self.by_2d = by_2d
+        self.prev_owner = np.zeros(0, np.int64)  # the track of each of prev_2d
         self.relink_frames, self.max_speed = int(relink_frames), max_speed
         self.counts = counts
         self.prev: WindowTracklets3D | None = None  # the previous window's linked tracklets
@@ -229,14 +235,17 @@ class WindowLinker:
         members of the previous window's 3D tracklets, or new in this window (a view's track broke)."""
         return member(track2d, self.prev_2d) | ~member(track2d, self.prev_seen)
 
-    def step(self, cur: WindowTracklets3D, track2d: np.ndarray, solo: np.ndarray) -> WindowTracklets3D:
+    def step(self, cur: WindowTracklets3D, track2d: np.ndarray, solo: np.ndarray,
+             floor: np.ndarray | None = None) -> WindowTracklets3D:
         """Link one window's 3D tracklets to the tracks.
 
         cur: (M, W) the window's tracklets (``members`` index ``track2d``); track2d: (K,) the 2D
         track ids of the window's segments; solo: (M,) bool, one-view plane tracklets (they may
-        only continue a track). Returns the linked tracklets, ``track_id`` set (new ids for the
-        unlinked), unlinked one-view tracklets removed.
+        only continue a track); floor: (M,) bool, floor tracklets (``by_2d``). Returns the
+        linked tracklets, ``track_id`` set (new ids for the unlinked), unlinked one-view
+        tracklets removed.
         """
+        self._track2d, self._floor = track2d, floor
         ids = self._link(cur, solo)
         new = ids < 0
         if solo.any():
@@ -249,6 +258,8 @@ class WindowLinker:
         self.next_track_id += int(new.sum())
         cur = cur.with_track_id(ids)
         self.prev_2d = track2d[cur.members[cur.members >= 0]]
+        if self.by_2d:
+            self.prev_owner = np.broadcast_to(cur.track_id[:, None], cur.members.shape)[cur.members >= 0]
         self.prev_seen = track2d
         self._end_tracks(cur)
         self.prev = cur
@@ -261,11 +272,13 @@ class WindowLinker:
         ids = np.full(len(cur), -1, np.int64)
         prev = self.prev
         chained = prev is not None and len(prev) > 0 and prev.start == start - self.window_step
+        if self.by_2d and chained and self._floor is not None and self._floor.any() and len(self.prev_2d):
+            self._link_by_2d(cur, ids)
         # a cascade here too: candidates of several views link first, one-view ones only to what is left
         for k, group in enumerate((~solo, solo) if solo.any() else (None,)):
             cols = np.flatnonzero(ids < 0) if group is None else np.flatnonzero(group & (ids < 0))
             # the first pass may link any previous tracklet, the second only those still free
-            free = (np.flatnonzero(~member(prev.track_id, ids)) if k else np.arange(len(prev))) if chained else []
+            free = (np.flatnonzero(~member(prev.track_id, ids)) if k or self.by_2d else np.arange(len(prev))) if chained else []
             if len(cols) and len(free):
                 r, c = link(link_distances(prev.xyz[free], prev.valid[free], cur.xyz[cols], cur.valid[cols],
                                            self.window_step), self.link_3d)
@@ -275,6 +288,19 @@ class WindowLinker:
             if self.lost and len(cols) and self.relink_frames > 0:  # beyond the paper: bridge short gaps
                 self._relink(cur, cols, ids)
         return ids
+
+    def _link_by_2d(self, cur: WindowTracklets3D, ids: np.ndarray) -> None:
+        """Floor tracklets of two or more views whose 2D tracks all belonged to one previous track
+        (one tracklet per track: the first) continue it (written into ``ids``)."""
+        track2d = self._track2d
+        for m in np.flatnonzero(self._floor & ((cur.members >= 0).sum(1) >= 2)).tolist():
+            t2 = track2d[cur.members[m][cur.members[m] >= 0]]
+            at = np.flatnonzero(member(self.prev_2d, t2))
+            if len(at) == len(t2) and len(np.unique(self.prev_owner[at])) == 1:
+                tid = int(self.prev_owner[at[0]])
+                if tid not in ids:
+                    ids[m] = tid
+                    self.counts["links_2d"] += 1
 
     def _relink(self, cur: WindowTracklets3D, cols: np.ndarray, ids: np.ndarray) -> None:
         """Lost tracks continued by the tracklets ``cols`` (written into ``ids``)."""

@@ -19,35 +19,29 @@ It wires the stages; the stateful ones are objects of their own modules:
 7. the heights of the body's top and bottom, from the box tops and bottoms by the same method;
 8. the target gymnast (III-D, Eq. 13-14) (:class:`~.target.TargetStage`).
 
-:meth:`Tracker._process_window` is Fig. 2 for one window: cut, cluster, triangulate, plane
-fallback, link -- one short method each.
-
-Latency: a frame's track points and boxes are final once the second window covering it has
-been processed, i.e. ``window - 1`` frames after it arrives (9 frames with the paper's window);
+Latency: a frame's track points and boxes are final ``window - 1`` frames after it arrives;
 the target adds ``backfill_frames`` (its decisions wait so an identification can claim the
 frames it looked back on, :class:`~.identify.TargetBackfill`) and the smoothing half-window (2
 frames), more only at the end of a target segment (see :class:`~.smoothing.TargetSmoother`).
-Memory is bounded on an endless stream: the tracker keeps only live 2D tracks, the boxes of
-frames not yet final, the previous window's 3D tracklets, the 3D records of frames not yet
-final, the target's last ``identify_frames`` frames and the ``backfill_frames`` held back
-(:meth:`Tracker.state_size`).
+Memory is bounded on an endless stream (what is held: :meth:`Tracker.state_size`).
 
 Beyond the paper (README, "Beyond the paper"): lost tracks re-link across ``relink_frames``;
 segments Eq. 2 separates are never fused on the plane; a view left alone may continue, on the
 plane, the 3D track its 2D track belonged to (or, for a 2D track new in the window, the track
 it links to), linked after the candidates of several views; the target back-fill.
 
-Modes (the paper's ablation, Table 4): ``cascade`` (the method), ``triangulation`` (no plane fallback;
-single-tracklet clusters are dropped and opposite pairs triangulated -- close to UniMMT), ``plane``
-(every segment goes to the plane stage); ``cascade+`` (beyond the paper) fuses two-view clusters with
-the plane by their uncertainty (:mod:`.fusion`). ``association="oracle"`` replaces the IoU tracker
-and Algorithm 1 by ground-truth ids carried in ``Detections.track_id`` (>= 0; -1 = a false positive,
-dropped and counted): the limit better association could reach. The plane stage then still applies
-its own Eq. 8 test, within each ground-truth person only. ``planes: auto``: :mod:`.plane_fit`.
+Modes (the paper's ablation, Table 4): ``cascade`` (the method), ``triangulation`` (no plane
+fallback; single-tracklet clusters are dropped and opposite pairs triangulated -- close to
+UniMMT), ``plane`` (every segment goes to the plane stage); beyond the paper, ``cascade+``: the
+cascade with the floor hypothesis (:mod:`.floor`), and with ``params.fuse_plane`` two-view clusters
+fused with the plane by their uncertainty (:mod:`.fusion`, experimental). ``association="oracle"``
+replaces the IoU tracker and Algorithm 1 by ground-truth ids carried in ``Detections.track_id``
+(>= 0; -1 = a false positive, dropped and counted): the limit better association could reach. The
+plane stage then still applies its own Eq. 8 test, within each ground-truth person only.
+``planes: auto``: :mod:`.plane_fit`.
 
-Speed (``benchmarks/bench_tracker.py``): every stage works on whole windows of columns; the
-per-frame work is one IoU matrix and, when needed, one assignment. What is skipped is counted
-in :meth:`Tracker.summary`.
+Speed (``benchmarks/bench_tracker.py``): stages work on whole windows of columns; skips are
+counted in :meth:`Tracker.summary`.
 """
 
 from __future__ import annotations
@@ -68,6 +62,7 @@ from ..geometry.plane import Plane
 from ..geometry.views import opposite_pairs
 from ._kernels import warm_up
 from .clustering import complete_linkage, tracklet_distances
+from .floor import drop_floor_ghosts, floor_split, solo_inside
 from .fusion import PlaneRayFusion
 from .linking import WindowLinker
 from .plane_fallback import plane_stage
@@ -83,7 +78,9 @@ ASSOCIATIONS = ("iou", "oracle")
 #: the per-window counters of :meth:`Tracker.summary` (what was used, made, dropped)
 COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulated", "segments_to_plane",
           "plane_tracklets", "segments_dropped_single", "tracklets_outliers", "links", "relinks", "plane_single_view",
-          "plane_single_view_unlinked", "fused_plane", "fused_triangulated", "fused_to_plane_stage")
+          "plane_single_view_unlinked", "floor_tracklets", "segments_to_floor", "floor_ghosts",
+          "segments_dropped_ghost", "plane_single_view_outside", "links_2d", "fused_plane", "fused_triangulated",
+          "fused_to_plane_stage")
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
 
 
@@ -111,6 +108,8 @@ class Tracker:
         if mode != "triangulation" and not scene.planes:
             raise InputError(f"mode {mode!r} needs at least one plane in scene.yaml (planes:)", field="planes")
         self.rig, self.scene, self.mode, self.association = rig, scene, mode, association
+        self.plus = mode == "cascade+"  # the beyond-the-paper additions (floor, ...) are gated on this
+        self._floor_only = np.zeros(0, np.int64)  # cascade+: this window's segments of ghost clusters
         p = self.params = scene.params
         self.width, self.step = p.window, p.step
         self.n_cameras = len(rig)
@@ -126,8 +125,9 @@ class Tracker:
         warm_up()  # numba's compile / cache load of every kernel: once per process, never tracking time
         self.iou = IoUTracker(p.iou_threshold, p.max_age)
         self.counts: dict = defaultdict(int)
-        self.linker = WindowLinker(p.step, p.link_3d, p.relink_frames, p.max_speed, self.counts)
-        self.fusion = PlaneRayFusion(rig, scene, self.plane_arrays, self.opposite, self.counts) if mode == "cascade+" else None
+        self.linker = WindowLinker(p.step, p.link_3d, p.relink_frames, p.max_speed, self.counts, by_2d=self.plus)
+        self.fusion = (PlaneRayFusion(rig, scene, self.plane_arrays, self.opposite, self.counts)
+                       if self.plus and p.fuse_plane else None)
         self.target = TargetStage(rig, scene)
         # stream position
         self.first_frame: int | None = None
@@ -262,8 +262,8 @@ class Tracker:
         segs = self._timed("windows", self._cut, start)
         labels, D2 = self._timed("clustering", self._cluster, segs)
         tri, to_plane = self._timed("triangulation", self._triangulate, segs, labels)
-        plane = self._timed("plane", self._plane_fallback, segs, to_plane, D2)
-        self._timed("linking", self._link, start, segs, tri, plane)
+        plane, floor = self._timed("plane", self._plane_fallback, segs, to_plane, D2)
+        self._timed("linking", self._link, start, segs, tri, plane, floor)
         self._finalise(start + self.step - 1)
 
     def _timed(self, stage: str, fn: Callable, *args):
@@ -303,12 +303,13 @@ class Tracker:
         p, C = self.params, self.n_cameras
         if labels is None:
             return None, np.arange(len(segs))
-        to_plane, fused = np.zeros(0, np.int64), None
+        fused = None
+        to_plane = self._floor_only = np.zeros(0, np.int64)
         if not len(segs):
             return None, to_plane
         members = cluster_members(labels, segs.camera, C)
         multi = (members >= 0).sum(axis=1) >= 2
-        if self.mode != "triangulation":  # single tracklets and opposite pairs go to the plane
+        if self.mode != "triangulation":  # cascade(+): single tracklets and opposite pairs go to the plane
             fallback = ~multi | opposite_clusters(members, self.opposite)
             if self.fusion is not None:  # cascade+: two-view clusters fused with the plane (.fusion)
                 fused, fallback, multi = self.fusion.step(segs, members, fallback, multi)
@@ -323,48 +324,57 @@ class Tracker:
         if bad.any():
             self.counts["tracklets_outliers"] += int(bad.sum())
             tri = tri.subset(~bad)
+        if self.plus:  # the floor's ghost test; a ghost's segments may go to the floor only
+            tri, self._floor_only = drop_floor_ghosts(tri, segs, self.rig.arrays, self.planes, p, self.scene, self.counts)
         self.counts["clusters_triangulated"] += len(tri)
         return tri, to_plane
 
     def _plane_fallback(self, segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | None
-                        ) -> WindowTracklets3D | None:
+                        ) -> tuple[WindowTracklets3D | None, WindowTracklets3D | None]:
         """Stage 5: the segments ``to_plane`` on the vertical plane (Eq. 5-9), outliers dropped;
-        ``members`` index ``segs``. None when nothing is left."""
-        if not len(to_plane):
-            return None
+        ``members`` index ``segs``. None when nothing is left. ``cascade+``: people on the floor
+        first (:func:`.floor.floor_split`), returned second."""
         p, C = self.params, self.n_cameras
+        floor = None
+        if self.plus and len(to_plane) + len(self._floor_only):
+            floor, to_plane = floor_split(segs, to_plane, D2, self.rig.arrays, p, self.scene, self.association == "oracle",
+                                          self.counts, self._floor_only)
+        if not len(to_plane):
+            return None, floor
         sub = segs.subset(to_plane)
         plane_labels = None
         if self.association == "oracle":
             plane_labels = np.unique(sub.track2d // C, return_inverse=True)[1]
-        # beyond the paper: two segments the epipolar test (Eq. 2) says are different people
-        # may not be fused on the plane either (their centre rays can still meet there: a phantom)
+        # beyond the paper: segments Eq. 2 says are different people are not fused on the plane
         apart = None if D2 is None else D2[np.ix_(to_plane, to_plane)] >= p.cluster_2d
-        # beyond the paper: a view left alone may continue, on the plane, the 3D track its 2D
-        # track already belongs to (kept by linking only if it links to that track)
+        # beyond the paper: a view left alone may continue, on the plane, its 2D track's 3D track
         single = self.linker.may_continue_alone(sub.track2d)
         pl = plane_stage(sub, self.rig, self.plane_arrays, p.cluster_plane, plane_labels, apart, single)
         self.counts["segments_to_plane"] += len(to_plane)
         if not len(pl):
-            return None
+            return None, floor
         bad = outliers(pl.xyz, pl.valid, self.space, p.max_speed)
         if bad.any():
             self.counts["tracklets_outliers"] += int(bad.sum())
             pl = pl.subset(~bad)
         pl = pl.with_members(np.where(pl.members >= 0, to_plane[np.maximum(pl.members, 0)], -1))  # index segs
+        if self.plus:  # the target's hand-over: one view alone only inside S_perf
+            pl = solo_inside(pl, self.scene.performance_space, self.counts)
         self.counts["plane_tracklets"] += len(pl)
-        return pl
+        return pl, floor
 
     def _link(self, start: int, segs: WindowTracklets, tri: WindowTracklets3D | None,
-              plane: WindowTracklets3D | None) -> None:
+              plane: WindowTracklets3D | None, floor: WindowTracklets3D | None = None) -> None:
         """Stage 6: cross-window linking (one-view plane tracklets only continue tracks); the
         window's points and boxes are kept until final."""
-        parts = [x for x in (tri, plane) if x is not None]
+        parts = [x for x in (tri, floor, plane) if x is not None]
         cur = WindowTracklets3D.concat(parts) if parts else WindowTracklets3D.empty(start, self.width, self.n_cameras)
         solo = np.zeros(len(cur), bool)  # one-view plane tracklets: they may only continue a track
         if plane is not None:
             solo[len(cur) - len(plane):] = (plane.members >= 0).sum(axis=1) == 1
-        cur = self.linker.step(cur, segs.track2d, solo)
+        floor_rows = np.zeros(len(cur), bool)  # cascade+: the floor tracklets, after the triangulated ones
+        floor_rows[len(tri or ()):][:len(floor or ())] = True
+        cur = self.linker.step(cur, segs.track2d, solo, floor_rows)
         self.records.add(cur, segs, self._window_index)
         self._window_index += 1
         self._next_start = start + self.step
