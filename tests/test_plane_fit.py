@@ -94,19 +94,25 @@ def test_fusion_with_a_tight_prior_is_the_paper_rule_eq9(rng):
     np.testing.assert_allclose(Yf, Y, atol=2e-3)
 
 
+def fusing_scene():
+    """The test scene with cascade+'s experimental plane fusion switched on (params.fuse_plane)."""
+    scene = simple_scene()
+    return scene.model_copy(update={"params": scene.params.model_copy(update={"fuse_plane": True})})
+
+
 def test_cascade_plus_fuses_an_opposite_pair_on_the_plane_and_triangulates_an_off_plane_pair():
     T = 40
     t = np.arange(T)
     on = np.stack([np.zeros(T), -1.0 + 0.05 * t, 1.0 + 0.2 * np.sin(t / 6)], axis=1)[None]
     det, _ = make_detections(ring_rig([0, 180]), on, noise=1.0, seed=2)
-    res = track_detections(ring_rig([0, 180]), simple_scene(), as_raw(det), mode="cascade+")
+    res = track_detections(ring_rig([0, 180]), fusing_scene(), as_raw(det), mode="cascade+")
     assert len(res.tracks) > 0.8 * T and res.summary["fused_plane"] > 0
     err = np.linalg.norm(res.tracks.xyz - on[0, res.tracks.frame], axis=1)
     assert np.median(err) < 0.05
     off = on + np.array([2.0, 0, 0])  # 2 m off the plane, seen from two views 90 degrees apart
     rig = ring_rig([0, 90])
     det, _ = make_detections(rig, off, noise=0.5, seed=4)
-    res = track_detections(rig, simple_scene(), as_raw(det), mode="cascade+")
+    res = track_detections(rig, fusing_scene(), as_raw(det), mode="cascade+")
     assert res.summary["fused_triangulated"] > 0 and res.summary["fused_plane"] == 0
     err = np.linalg.norm(res.tracks.xyz - off[0, res.tracks.frame], axis=1)
     assert np.median(err) < 0.05  # not pulled onto the plane

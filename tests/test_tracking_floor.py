@@ -9,7 +9,8 @@ import numpy as np
 
 from conftest import make_detections, ring_rig, simple_scene
 from gymtrack.tracking.floor import drop_floor_ghosts, floor_candidates, floor_stage
-from gymtrack.tracking.tracker import MODES, track_detections
+from gymtrack.tracking.offline import track_detections
+from gymtrack.tracking.tracker import MODES
 from gymtrack.tracking.types import WindowTracklets, WindowTracklets3D
 
 W = 6
