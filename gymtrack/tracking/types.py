@@ -33,16 +33,28 @@ TRIANGULATION, PLANE, INTERPOLATED = 0, 1, 2
 SOURCE_NAMES: tuple[str, ...] = ("triangulation", "plane", "interpolated")
 
 
+_FIELD_NAMES: dict[type, tuple[str, ...]] = {}
+
+
+def _field_names(cls) -> tuple[str, ...]:
+    """The dataclass's field names, looked up once per class (``fields()`` is slow per call)."""
+    names = _FIELD_NAMES.get(cls)
+    if names is None:
+        names = _FIELD_NAMES[cls] = tuple(f.name for f in fields(cls))
+    return names
+
+
 def _concat_rows(cls, parts: Sequence[Any]):
     """Concatenate dataclasses of parallel arrays row-wise (all array fields)."""
     parts = [p for p in parts if p is not None]
     if not parts:
         return cls.empty()
-    return cls(**{f.name: np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(cls)})
+    return cls(*[np.concatenate([getattr(p, n) for p in parts]) for n in _field_names(cls)])
 
 
 def _select_rows(obj, index):
-    return type(obj)(**{f.name: getattr(obj, f.name)[index] for f in fields(obj)})
+    cls = type(obj)
+    return cls(*[getattr(obj, n)[index] for n in _field_names(cls)])
 
 
 class _PointRows:
