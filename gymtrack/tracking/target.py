@@ -121,9 +121,14 @@ class TargetStage:
     def _pause(self, a: int, b: int, frame: np.ndarray) -> tuple[int | None, int | None] | None:
         """The first pause longer than :attr:`settle` in frames ``a..b`` (points at ``frame``):
         (last point before it or None, first point after it or None), or None without one."""
-        u = np.unique(frame)
         held = self._last_point is not None
         prev = self._last_point if held else a - 1  # (nothing held: a pause only if the first point is far)
+        # no gap between consecutive frames of prev, the points and b + 1 exceeds their span: a
+        # span within settle + 1 (every call of an uninterrupted stream) needs no search
+        lo, hi = (min(prev, int(frame.min())), max(b + 1, int(frame.max()))) if len(frame) else (prev, b + 1)
+        if hi - lo - 1 <= self.settle:
+            return None
+        u = np.unique(frame)
         s = np.r_[prev, u, b + 1]
         gap = np.flatnonzero(np.diff(s) - 1 > self.settle)
         if not len(gap):
