@@ -159,8 +159,9 @@ class Tracker:
             raise InputError(f"detections are of cameras {list(detections.camera_names)}, the rig has {list(self.names)}",
                              field="camera_names")
         camera = detections.camera.astype(np.int64)
-        # one test per frame for both (as uint64, negative camera indices are huge)
-        if len(camera) and ((detections.frame != frame) | (camera.view(np.uint64) >= self.n_cameras)).any():
+        # one test per frame for both (as uint64, negative camera indices are huge); count_nonzero
+        # is one C call where .any() goes through Python
+        if len(camera) and np.count_nonzero((detections.frame != frame) | (camera.view(np.uint64) >= self.n_cameras)):
             if (detections.frame != frame).any():
                 bad = int(detections.frame[detections.frame != frame][0])
                 raise InputError(f"update({frame}, ...) got a box of frame {bad}", field="frame")
@@ -346,7 +347,7 @@ class Tracker:
         if self.association == "oracle":
             plane_labels = np.unique(sub.track2d // C, return_inverse=True)[1]
         # beyond the paper: segments Eq. 2 says are different people are not fused on the plane
-        apart = None if D2 is None else D2[np.ix_(to_plane, to_plane)] >= p.cluster_2d
+        apart = None if D2 is None else D2[to_plane][:, to_plane] >= p.cluster_2d  # (two takes: cheaper than np.ix_)
         # beyond the paper: a view left alone may continue, on the plane, its 2D track's 3D track
         single = self.linker.may_continue_alone(sub.track2d)
         pl = plane_stage(sub, self.rig, self.plane_arrays, p.cluster_plane, plane_labels, apart, single)
