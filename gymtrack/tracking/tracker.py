@@ -369,7 +369,9 @@ class Tracker:
         """Stage 6: cross-window linking (one-view plane tracklets only continue tracks); the
         window's points and boxes are kept until final."""
         parts = [x for x in (tri, floor, plane) if x is not None]
-        cur = WindowTracklets3D.concat(parts) if parts else WindowTracklets3D.empty(start, self.width, self.n_cameras)
+        # (one part is used as it is: the stages never write into a window's tracklets)
+        cur = (parts[0] if len(parts) == 1 else WindowTracklets3D.concat(parts)) if parts else \
+            WindowTracklets3D.empty(start, self.width, self.n_cameras)
         solo = np.zeros(len(cur), bool)  # one-view plane tracklets: they may only continue a track
         if plane is not None:
             solo[len(cur) - len(plane):] = (plane.members >= 0).sum(axis=1) == 1

@@ -170,10 +170,11 @@ class WindowTracklets3D:
 
     @classmethod
     def concat(cls, parts: Sequence["WindowTracklets3D"]) -> "WindowTracklets3D":
-        p0 = parts[0]
+        cat = np.concatenate  # (the columns spelled out: a generator per call costs more than the work)
         return cls(
-            p0.start, *(np.concatenate([getattr(p, n) for p in parts]) for n in
-                        ("xyz", "top_z", "bottom_z", "valid", "source", "n_views", "members", "track_id")),
+            parts[0].start, cat([p.xyz for p in parts]), cat([p.top_z for p in parts]), cat([p.bottom_z for p in parts]),
+            cat([p.valid for p in parts]), cat([p.source for p in parts]), cat([p.n_views for p in parts]),
+            cat([p.members for p in parts]), cat([p.track_id for p in parts]),
         )
 
     def with_track_id(self, track_id: np.ndarray) -> "WindowTracklets3D":
@@ -264,8 +265,10 @@ class TargetRows:
         """Row-wise concatenation of one or more parts (one part is returned as it is)."""
         if len(parts) == 1:
             return parts[0]
-        return cls(*(np.concatenate(c) for c in zip(*((p.frame, p.track_id, p.xyz, p.top_z, p.bottom_z, p.source, p.wh)
-                                                       for p in parts))))
+        cat = np.concatenate
+        return cls(cat([p.frame for p in parts]), cat([p.track_id for p in parts]), cat([p.xyz for p in parts]),
+                   cat([p.top_z for p in parts]), cat([p.bottom_z for p in parts]), cat([p.source for p in parts]),
+                   cat([p.wh for p in parts]))
 
     def with_xyz(self, xyz: np.ndarray) -> "TargetRows":
         """The same rows with centres ``xyz`` (n, 3) (cheaper than ``dataclasses.replace``)."""
