@@ -9,6 +9,7 @@ from conftest import ring_rig, simple_scene
 
 from gymtrack.detections import Detections
 from gymtrack.tracking import undistort
+from gymtrack.tracking._kernels.single_view import frame_rows_check
 from gymtrack.tracking.target import TargetStage
 from gymtrack.tracking.types import Tracks3D
 from gymtrack.tracking.undistort import UndistortTables
@@ -91,3 +92,18 @@ def test_tracks_concat_and_select_by_cached_field_names():
     both = Tracks3D.concat([t, t.select(np.array([1]))])
     assert both.frame.tolist() == [1, 2, 2] and both.xyz.shape == (3, 3) and both.n_views.dtype == np.int8
     assert Tracks3D.concat([t]).frame is not t.frame  # a copy, as before
+
+
+def test_frame_rows_check_is_the_numpy_test():
+    rng = np.random.default_rng(2)
+    seen = set()
+    for _ in range(300):
+        n = int(rng.integers(0, 8))
+        frame_col = np.where(rng.random(n) < 0.9, 5, rng.integers(0, 9, n)).astype(np.int64)
+        camera = rng.integers(-2, 6, n).astype(np.int64)
+        if rng.random() < 0.5:
+            camera = np.clip(camera, 0, 3)
+        ref = 1 if (frame_col != 5).any() else 2 if ((camera < 0) | (camera >= 4)).any() else 0
+        assert frame_rows_check(frame_col, camera, 5, 4) == ref
+        seen.add(ref)
+    assert seen == {0, 1, 2}

@@ -61,6 +61,7 @@ from ..geometry.epipolar import fundamental_matrices
 from ..geometry.plane import Plane
 from ..geometry.views import opposite_pairs
 from ._kernels import warm_up
+from ._kernels.single_view import frame_rows_check
 from .clustering import complete_linkage, tracklet_distances
 from .floor import drop_floor_ghosts, floor_split, solo_inside
 from .fusion import PlaneRayFusion
@@ -159,9 +160,8 @@ class Tracker:
             raise InputError(f"detections are of cameras {list(detections.camera_names)}, the rig has {list(self.names)}",
                              field="camera_names")
         camera = detections.camera.astype(np.int64)
-        # one test per frame for both (as uint64, negative camera indices are huge); count_nonzero
-        # is one C call where .any() goes through Python
-        if len(camera) and np.count_nonzero((detections.frame != frame) | (camera.view(np.uint64) >= self.n_cameras)):
+        # one compiled test per frame for both (a frame's few rows: numpy's per-call cost dominated)
+        if len(camera) and frame_rows_check(np.asarray(detections.frame, np.int64), camera, frame, self.n_cameras):
             if (detections.frame != frame).any():
                 bad = int(detections.frame[detections.frame != frame][0])
                 raise InputError(f"update({frame}, ...) got a box of frame {bad}", field="frame")
