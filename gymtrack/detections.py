@@ -50,6 +50,16 @@ class Detections:
         )
 
     @classmethod
+    def of_columns(cls, frame, camera, box, score, track_id, camera_names: tuple[str, ...]) -> "Detections":
+        """Detections from columns already of the dtypes and lengths above (rows selected from a
+        valid ``Detections``, the tracker's own outputs): no conversion, no check (hot paths)."""
+        new = object.__new__(cls)
+        # (a frozen dataclass's __init__ sets each field through object.__setattr__: slower)
+        new.__dict__.update(frame=frame, camera=camera, box=box, score=score, track_id=track_id,
+                            camera_names=camera_names)
+        return new
+
+    @classmethod
     def from_arrays(
         cls,
         frame,
@@ -92,8 +102,9 @@ class Detections:
         return len(self.frame)
 
     def select(self, index) -> "Detections":
-        """Rows by boolean mask or integer index."""
-        return Detections(
+        """Rows by boolean mask, integer index or slice."""
+        # every column indexed alike keeps the row counts equal: nothing to check again
+        return Detections.of_columns(
             self.frame[index], self.camera[index], self.box[index], self.score[index], self.track_id[index], self.camera_names
         )
 

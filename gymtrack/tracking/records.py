@@ -11,7 +11,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -115,11 +115,15 @@ class MemberRows:
 
     @classmethod
     def concat(cls, parts: list["MemberRows"]) -> "MemberRows":
-        return parts[0] if len(parts) == 1 else cls(*(np.concatenate([getattr(p, f.name) for p in parts])
-                                                       for f in fields(cls)))
+        if len(parts) == 1:
+            return parts[0]
+        cat = np.concatenate  # (the columns spelled out: fields() per call cost more than the work)
+        return cls(cat([p.det for p in parts]), cat([p.frame for p in parts]), cat([p.camera for p in parts]),
+                   cat([p.track_id for p in parts]), cat([p.window for p in parts]))
 
     def select(self, index) -> "MemberRows":
-        return MemberRows(*(getattr(self, f.name)[index] for f in fields(self)))
+        return MemberRows(self.det[index], self.frame[index], self.camera[index], self.track_id[index],
+                          self.window[index])
 
 
 def _concat_estimates(parts: list[Tracks3D]) -> Tracks3D:

@@ -69,6 +69,7 @@ class TargetStage:
         self.memory: dict = {}  # Eq. 14: the body box's last half-length
         self.frames = 0  # target frames emitted
         self._last_point: int | None = None  # the last frame with a track point (pauses are jumped)
+        self._none = (Target.empty(), Detections.empty(rig.names))  # what most calls return (immutable, empty)
 
     def __len__(self) -> int:
         return len(self.selector) + len(self.smoother) + len(self.backfill)
@@ -102,8 +103,7 @@ class TargetStage:
             if q is not None:
                 after, ba = tracks.frame >= q, boxes.frame >= q
                 out.append(self.update(q, b, tracks.select(after), boxes.select(ba), ended))
-            return (Target.concat([t for t, _ in out]), Detections.concat([d for _, d in out])) if out else \
-                (Target.empty(), Detections.empty(self.rig.names))
+            return (Target.concat([t for t, _ in out]), Detections.concat([d for _, d in out])) if out else self._none
         if len(tracks):
             self._last_point = max(self._last_point if self._last_point is not None else a, int(tracks.frame.max()))
         ind, inperf = identify_indicator(tracks.xyz, tracks.top_z, tracks.bottom_z, self.perf, self.h_top, self.h_bot)
@@ -121,9 +121,14 @@ class TargetStage:
     def _pause(self, a: int, b: int, frame: np.ndarray) -> tuple[int | None, int | None] | None:
         """The first pause longer than :attr:`settle` in frames ``a..b`` (points at ``frame``):
         (last point before it or None, first point after it or None), or None without one."""
-        u = np.unique(frame)
         held = self._last_point is not None
         prev = self._last_point if held else a - 1  # (nothing held: a pause only if the first point is far)
+        # no gap between consecutive frames of prev, the points and b + 1 exceeds their span: a
+        # span within settle + 1 (every call of an uninterrupted stream) needs no search
+        lo, hi = (min(prev, int(frame.min())), max(b + 1, int(frame.max()))) if len(frame) else (prev, b + 1)
+        if hi - lo - 1 <= self.settle:
+            return None
+        u = np.unique(frame)
         s = np.r_[prev, u, b + 1]
         gap = np.flatnonzero(np.diff(s) - 1 > self.settle)
         if not len(gap):
@@ -157,7 +162,7 @@ class TargetStage:
         """Smoothed rows -> the target and its Eq. 14 boxes."""
         emitted = [e for e in emitted if e is not None]
         if not emitted:
-            return Target.empty(), Detections.empty(self.rig.names)
+            return self._none
         rows = TargetRows.concat(emitted)
         self.frames += len(rows)
         return target_and_boxes(self.rig, rows, self.box_scale, self.memory, self.planes)

@@ -61,6 +61,7 @@ from ..geometry.epipolar import fundamental_matrices
 from ..geometry.plane import Plane
 from ..geometry.views import opposite_pairs
 from ._kernels import warm_up
+from ._kernels.single_view import frame_rows_check
 from .clustering import complete_linkage, tracklet_distances
 from .floor import drop_floor_ghosts, floor_split, solo_inside
 from .fusion import PlaneRayFusion
@@ -159,8 +160,8 @@ class Tracker:
             raise InputError(f"detections are of cameras {list(detections.camera_names)}, the rig has {list(self.names)}",
                              field="camera_names")
         camera = detections.camera.astype(np.int64)
-        # one test per frame for both (as uint64, negative camera indices are huge)
-        if len(camera) and ((detections.frame != frame) | (camera.view(np.uint64) >= self.n_cameras)).any():
+        # one compiled test per frame for both (a frame's few rows: numpy's per-call cost dominated)
+        if len(camera) and frame_rows_check(np.asarray(detections.frame, np.int64), camera, frame, self.n_cameras):
             if (detections.frame != frame).any():
                 bad = int(detections.frame[detections.frame != frame][0])
                 raise InputError(f"update({frame}, ...) got a box of frame {bad}", field="frame")
@@ -346,7 +347,7 @@ class Tracker:
         if self.association == "oracle":
             plane_labels = np.unique(sub.track2d // C, return_inverse=True)[1]
         # beyond the paper: segments Eq. 2 says are different people are not fused on the plane
-        apart = None if D2 is None else D2[np.ix_(to_plane, to_plane)] >= p.cluster_2d
+        apart = None if D2 is None else D2[to_plane][:, to_plane] >= p.cluster_2d  # (two takes: cheaper than np.ix_)
         # beyond the paper: a view left alone may continue, on the plane, its 2D track's 3D track
         single = self.linker.may_continue_alone(sub.track2d)
         pl = plane_stage(sub, self.rig, self.plane_arrays, p.cluster_plane, plane_labels, apart, single)
@@ -368,7 +369,9 @@ class Tracker:
         """Stage 6: cross-window linking (one-view plane tracklets only continue tracks); the
         window's points and boxes are kept until final."""
         parts = [x for x in (tri, floor, plane) if x is not None]
-        cur = WindowTracklets3D.concat(parts) if parts else WindowTracklets3D.empty(start, self.width, self.n_cameras)
+        # (one part is used as it is: the stages never write into a window's tracklets)
+        cur = (parts[0] if len(parts) == 1 else WindowTracklets3D.concat(parts)) if parts else \
+            WindowTracklets3D.empty(start, self.width, self.n_cameras)
         solo = np.zeros(len(cur), bool)  # one-view plane tracklets: they may only continue a track
         if plane is not None:
             solo[len(cur) - len(plane):] = (plane.members >= 0).sum(axis=1) == 1

@@ -33,16 +33,28 @@ TRIANGULATION, PLANE, INTERPOLATED = 0, 1, 2
 SOURCE_NAMES: tuple[str, ...] = ("triangulation", "plane", "interpolated")
 
 
+_FIELD_NAMES: dict[type, tuple[str, ...]] = {}
+
+
+def _field_names(cls) -> tuple[str, ...]:
+    """The dataclass's field names, looked up once per class (``fields()`` is slow per call)."""
+    names = _FIELD_NAMES.get(cls)
+    if names is None:
+        names = _FIELD_NAMES[cls] = tuple(f.name for f in fields(cls))
+    return names
+
+
 def _concat_rows(cls, parts: Sequence[Any]):
     """Concatenate dataclasses of parallel arrays row-wise (all array fields)."""
     parts = [p for p in parts if p is not None]
     if not parts:
         return cls.empty()
-    return cls(**{f.name: np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(cls)})
+    return cls(*[np.concatenate([getattr(p, n) for p in parts]) for n in _field_names(cls)])
 
 
 def _select_rows(obj, index):
-    return type(obj)(**{f.name: getattr(obj, f.name)[index] for f in fields(obj)})
+    cls = type(obj)
+    return cls(*[getattr(obj, n)[index] for n in _field_names(cls)])
 
 
 class _PointRows:
@@ -158,10 +170,11 @@ class WindowTracklets3D:
 
     @classmethod
     def concat(cls, parts: Sequence["WindowTracklets3D"]) -> "WindowTracklets3D":
-        p0 = parts[0]
+        cat = np.concatenate  # (the columns spelled out: a generator per call costs more than the work)
         return cls(
-            p0.start, *(np.concatenate([getattr(p, n) for p in parts]) for n in
-                        ("xyz", "top_z", "bottom_z", "valid", "source", "n_views", "members", "track_id")),
+            parts[0].start, cat([p.xyz for p in parts]), cat([p.top_z for p in parts]), cat([p.bottom_z for p in parts]),
+            cat([p.valid for p in parts]), cat([p.source for p in parts]), cat([p.n_views for p in parts]),
+            cat([p.members for p in parts]), cat([p.track_id for p in parts]),
         )
 
     def with_track_id(self, track_id: np.ndarray) -> "WindowTracklets3D":
@@ -252,8 +265,10 @@ class TargetRows:
         """Row-wise concatenation of one or more parts (one part is returned as it is)."""
         if len(parts) == 1:
             return parts[0]
-        return cls(*(np.concatenate(c) for c in zip(*((p.frame, p.track_id, p.xyz, p.top_z, p.bottom_z, p.source, p.wh)
-                                                       for p in parts))))
+        cat = np.concatenate
+        return cls(cat([p.frame for p in parts]), cat([p.track_id for p in parts]), cat([p.xyz for p in parts]),
+                   cat([p.top_z for p in parts]), cat([p.bottom_z for p in parts]), cat([p.source for p in parts]),
+                   cat([p.wh for p in parts]))
 
     def with_xyz(self, xyz: np.ndarray) -> "TargetRows":
         """The same rows with centres ``xyz`` (n, 3) (cheaper than ``dataclasses.replace``)."""

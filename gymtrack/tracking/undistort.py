@@ -15,7 +15,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..geometry.camera import Rig
+from ..geometry.camera import Camera, Rig
+
+#: built tables by the calibration they depend on: a tracker per routine and method would
+#: otherwise redo the OpenCV grid (milliseconds per camera) for the same cameras
+_BUILT: dict[tuple, tuple[np.ndarray, np.ndarray, float] | None] = {}
+_BUILT_MAX = 64
 
 
 class UndistortTables:
@@ -39,11 +44,22 @@ class UndistortTables:
         for c, cam in enumerate(rig):
             if not cam.has_distortion:
                 continue
-            built = self._build(cam, step, margin)
+            built = self._build_cached(cam, step, margin)
             if built is None:
                 self.exact.append(c)
             else:
                 self.tables[c] = built
+
+    def _build_cached(self, cam: Camera, step: float, margin: float):
+        """:meth:`_build`, reused for a camera of the same calibration (the tables are read only)."""
+        key = (tuple(cam.size), cam.K.tobytes(), np.asarray(cam.dist, np.float64).tobytes(), step, margin, self.tol)
+        if key not in _BUILT:
+            if len(_BUILT) >= _BUILT_MAX:
+                _BUILT.pop(next(iter(_BUILT)))  # the oldest
+            built = _BUILT[key] = self._build(cam, step, margin)
+            if built is not None:  # shared between trackers: read only
+                built[0].flags.writeable = built[1].flags.writeable = False
+        return _BUILT[key]
 
     def _build(self, cam, step: float, margin: float):
         w, h = cam.size

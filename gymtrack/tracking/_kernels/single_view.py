@@ -173,12 +173,28 @@ def iou_commit(tbox, tcam, tlast, tid, next_id, frame, camera, cb, rows, cols):
     return out_b, out_c, out_l, out_i, ids, next_id
 
 
+@njit(cache=True)
+def frame_rows_check(frame_col, camera, frame, n_cameras):
+    """The input test of one :meth:`gymtrack.tracking.tracker.Tracker.update`: frame_col,
+    camera (N,) int64. Returns 0 when every row is of ``frame`` with a camera index in
+    ``0 .. n_cameras - 1``; else 1 when a row is of another frame, else 2 (a camera index outside).
+    (Five numpy calls per streamed frame before; numpy reference in the tests.)
+    """
+    code = 0
+    for i in range(frame_col.shape[0]):
+        if frame_col[i] != frame:
+            return 1
+        if camera[i] < 0 or camera[i] >= n_cameras:
+            code = 2
+    return code
+
 
 def warm_up() -> None:
     """Compile (or load) the kernels on two frames of the sample scene's boxes."""
     s = sample()
     tracks = (np.zeros((5, 0)), np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64))
     next_id = 0
+    frame_rows_check(np.zeros(1, np.int64), np.zeros(1, np.int64), 0, 1)
     for frame in (0, 1):
         box = np.ascontiguousarray(s.box[:, frame])
         tb, tc, tl, ti, cb, r, c = iou_frame(*tracks, frame, 2, s.camera, box, 0.1)[:7]
