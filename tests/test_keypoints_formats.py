@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import copy
 import json
 from pathlib import Path
 
@@ -15,6 +14,7 @@ from gymtrack.errors import InputError
 from gymtrack.formats.keypoints import read_keypoints, read_keypoints_file, write_keypoints
 from gymtrack.poses import Poses2D
 from gymtrack.skeletons import BODY25, COCO17, HALPE26, custom_skeleton
+from mutation import mutated_doc
 
 CAMS = ("cam1", "cam2")
 
@@ -172,35 +172,10 @@ json_values = st.recursive(
     max_leaves=6)
 
 
-def _paths(node, prefix=()):
-    yield prefix
-    if isinstance(node, dict):
-        for k, v in node.items():
-            yield from _paths(v, prefix + (k,))
-    elif isinstance(node, list):
-        for i, v in enumerate(node):
-            yield from _paths(v, prefix + (i,))
-
-
 @st.composite
 def mutated(draw, base):
-    doc = copy.deepcopy(base)
-    for _ in range(draw(st.integers(1, 3))):
-        paths = list(_paths(doc))
-        path = draw(st.sampled_from(paths))
-        if not path:
-            doc = draw(json_values)
-            continue
-        parent = doc
-        for k in path[:-1]:
-            parent = parent[k]
-        action = draw(st.sampled_from(["replace", "replace", "delete", "append"]))
-        if action == "delete":
-            del parent[path[-1]]
-        elif action == "append" and isinstance(parent[path[-1]], list):
-            parent[path[-1]].append(draw(json_values))
-        else:
-            parent[path[-1]] = draw(json_values)
+    """A mutated document as JSON text, sometimes cut short."""
+    doc = draw(mutated_doc(base, json_values))
     text = json.dumps(doc)
     if draw(st.integers(0, 9)) == 0:
         text = text[: draw(st.integers(0, len(text)))]

@@ -12,7 +12,6 @@ field; never another exception. (WILDTRACK calibration XML too. MOTChallenge fil
 
 from __future__ import annotations
 
-import copy
 import json
 from pathlib import Path
 
@@ -33,6 +32,7 @@ from gymtrack.geometry import Rig
 from gymtrack.poses import Poses3D
 from gymtrack.scene import Scene
 from gymtrack.skeletons import COCO17
+from mutation import mutated_doc as mutated
 
 SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "balance_beam"
@@ -205,36 +205,9 @@ json_values = st.recursive(
 )
 
 
-def _paths(node, prefix=()):
-    yield prefix
-    if isinstance(node, dict):
-        for k, v in node.items():
-            yield from _paths(v, prefix + (k,))
-    elif isinstance(node, list):
-        for i, v in enumerate(node):
-            yield from _paths(v, prefix + (i,))
-
-
-@st.composite
-def mutated_doc(draw, base):
-    """``base`` (JSON-like) with 1-3 values replaced, removed or appended to."""
-    doc = copy.deepcopy(base)
-    for _ in range(draw(st.integers(1, 3))):
-        path = draw(st.sampled_from(list(_paths(doc))))
-        if not path:
-            doc = draw(json_values)
-            continue
-        parent = doc
-        for k in path[:-1]:
-            parent = parent[k]
-        action = draw(st.sampled_from(["replace", "replace", "delete", "append"]))
-        if action == "delete":
-            del parent[path[-1]]
-        elif action == "append" and isinstance(parent[path[-1]], list):
-            parent[path[-1]].append(draw(json_values))
-        else:
-            parent[path[-1]] = draw(json_values)
-    return doc
+def mutated_doc(base):
+    """``base`` (JSON-like) with 1-3 values replaced, removed or appended to (:mod:`mutation`)."""
+    return mutated(base, json_values)
 
 
 SCENE = yaml.safe_load((EXAMPLE / "scene.yaml").read_text())
