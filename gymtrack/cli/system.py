@@ -70,7 +70,8 @@ def numba_cache() -> NumbaCache:
     found = {c: sum(1 for _ in c.glob("*.nbi")) for c in candidates if c.is_dir()}
     used = tuple(sorted(c for c, n in found.items() if n))
     if not used:  # cold: say where the cache will go
-        used = tuple(roots) if os.environ.get("NUMBA_CACHE_DIR") else (pkg / "tracking" / "__pycache__",)
+        used = (tuple(roots) if os.environ.get("NUMBA_CACHE_DIR")
+                else (pkg / "tracking" / "_kernels" / "__pycache__", pkg / "geometry" / "__pycache__"))
     return NumbaCache(used, sum(found.values()))
 
 
