@@ -326,7 +326,7 @@ class Tracker:
             self.counts["tracklets_outliers"] += int(bad.sum())
             tri = tri.subset(~bad)
         if self.plus:  # the floor's ghost test; a ghost's segments may go to the floor only
-            tri, self._floor_only = drop_floor_ghosts(tri, segs, self.rig.arrays, self.planes, p, self.scene, self.counts)
+            tri, self._floor_only = drop_floor_ghosts(tri, segs, self.rig.arrays, self.plane_arrays, p, self.scene, self.counts)
         self.counts["clusters_triangulated"] += len(tri)
         return tri, to_plane
 

@@ -1,0 +1,135 @@
+"""The compiled floor of cascade+ (tracking._kernels.floor) against the numpy code it replaced
+(tests/reference/floor.py), on random windows: people on the floor and in the air seen by a
+ring of cameras, with noise, gaps, wrong boxes, constraints and several planes. Ids, members and
+decisions must be identical; coordinates equal to rounding."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from conftest import ring_rig
+from gymtrack.geometry.plane import Plane
+from gymtrack.tracking import floor
+from gymtrack.tracking.types import WindowTracklets, WindowTracklets3D
+from reference import floor as ref
+
+W = 10
+SPACE = np.array([-3.0, -3.0, 0.0, 3.0, 3.0, 4.5])
+
+
+def _window(rng, rig, n_people):
+    """Segments of n_people (feet on the floor or up to 1.5 m up, some outside the space), one per
+    camera that sees them, with pixel noise, invalid and unobserved frames and a few random boxes."""
+    box, cam = [], []
+    for _ in range(n_people):
+        x, y = rng.uniform(-6, 6, 2)
+        zb = 0.0 if rng.random() < 0.6 else rng.uniform(0.0, 1.5)
+        zt = zb + rng.uniform(0.5, 2.2)
+        for c, camera in enumerate(rig):
+            if rng.random() < 0.2:
+                continue
+            P = camera.P
+            pts = np.array([[x, y, zb, 1.0], [x, y, zt, 1.0]]) @ P.T
+            uv = pts[:, :2] / pts[:, 2:]
+            uv = uv + rng.normal(0, 2.0, (W, 2, 2))
+            h = uv[:, 0, 1] - uv[:, 1, 1]
+            bx = np.stack([uv[:, 0, 0], (uv[:, 0, 1] + uv[:, 1, 1]) / 2, 0.4 * np.abs(h), h], axis=-1)
+            if rng.random() < 0.1:
+                bx = rng.uniform(0, 1500, (W, 4))
+            box.append(bx)
+            cam.append(c)
+    K = len(cam)
+    box = np.array(box).reshape(K, W, 4)
+    valid = rng.random((K, W)) < 0.9
+    observed = valid & (rng.random((K, W)) < 0.8)
+    box[~valid] = np.nan
+    order = np.argsort(cam, kind="stable")
+    return WindowTracklets(0, np.array(cam, np.int64)[order], np.arange(K, dtype=np.int64), box[order],
+                           observed[order], valid[order], np.arange(K * W).reshape(K, W))
+
+
+def _same_tracklets(a: WindowTracklets3D, b: WindowTracklets3D):
+    assert a.members.tolist() == b.members.tolist()
+    assert np.array_equal(a.valid, b.valid) and np.array_equal(a.source, b.source)
+    assert np.array_equal(a.n_views, b.n_views) and np.array_equal(a.track_id, b.track_id)
+    for x, y in ((a.xyz, b.xyz), (a.top_z, b.top_z), (a.bottom_z, b.bottom_z)):
+        assert np.allclose(x, y, rtol=0, atol=1e-9, equal_nan=True)
+
+
+@pytest.mark.parametrize("seed", range(25))
+def test_floor_candidates_and_stage_match_numpy(seed):
+    rng = np.random.default_rng(seed)
+    rig = ring_rig(sorted(rng.choice(360, size=rng.integers(2, 5), replace=False)), radius=10.0, height=3.0)
+    segs = _window(rng, rig, rng.integers(0, 6))
+    foot, height, ok = floor.floor_candidates(segs, rig.arrays)
+    foot_r, height_r, ok_r = ref.floor_candidates(segs, rig.arrays)
+    assert np.array_equal(ok, ok_r)
+    assert np.allclose(foot[ok], foot_r[ok], rtol=0, atol=1e-9) and np.allclose(height[ok], height_r[ok], rtol=0, atol=1e-9)
+    K = len(segs)
+    a = rng.random((K, K)) < 0.2
+    apart = a | a.T
+    labels = rng.integers(0, 3, K)
+    for kw in ({}, {"apart": apart}, {"labels": labels}):
+        fl, used = floor.floor_stage(segs, rig.arrays, 0.5, SPACE, **kw)
+        fl_r, used_r = ref.floor_stage(segs, rig.arrays, 0.5, SPACE, **kw)
+        assert used.tolist() == used_r.tolist()
+        _same_tracklets(fl, fl_r)
+
+
+def test_floor_stage_random_windows_take_something():
+    """The random windows above are not all trivial: the floor takes segments in many of them."""
+    taken = 0
+    for seed in range(25):
+        rng = np.random.default_rng(seed)
+        rig = ring_rig(sorted(rng.choice(360, size=rng.integers(2, 5), replace=False)), radius=10.0, height=3.0)
+        segs = _window(rng, rig, rng.integers(0, 6))
+        taken += int(floor.floor_stage(segs, rig.arrays, 0.5, SPACE)[1].sum())
+    assert taken > 20
+
+
+def _ghost_case(seed):
+    """A random window and 8 random clusters of 1-3 of its segments (two-view ones are judged)."""
+    rng = np.random.default_rng(100 + seed)
+    rig = ring_rig(sorted(rng.choice(360, size=rng.integers(2, 5), replace=False)), radius=10.0, height=3.0)
+    segs = _window(rng, rig, rng.integers(2, 6))
+    K, C = len(segs), len(rig)
+    M = 8
+    members = np.full((M, C), -1, np.int64)
+    for m in range(M):
+        for k in rng.choice(K, size=min(K, rng.integers(1, 4)), replace=False):
+            members[m, segs.camera[k]] = k
+    valid = rng.random((M, W)) < 0.8
+    xyz = rng.uniform(-4, 4, (M, W, 3))
+    bottom = np.where(rng.random((M, W)) < 0.9, rng.uniform(-0.2, 1.0, (M, W)), np.nan)
+    tri = WindowTracklets3D(0, xyz, bottom + 1.5, bottom, valid, np.zeros((M, W), np.int8),
+                            np.full((M, W), 2, np.int8), members, np.full(M, -1, np.int64))
+    params = SimpleNamespace(cluster_plane=rng.choice([0.5, 1.5]))
+    return segs, rig, tri, params, SimpleNamespace(performance_space=SPACE)
+
+
+PLANES = [Plane(np.zeros(3), np.array([1.0, 0.0, 0.0])), Plane(np.zeros(3), np.array([0.0, 1.0, 0.0]))]
+
+
+@pytest.mark.parametrize("seed", range(25))
+def test_ghost_test_matches_numpy(seed):
+    segs, rig, tri, params, scene = _ghost_case(seed)
+    for pl in ([], PLANES[:1], PLANES):
+        counts, counts_r = {"floor_ghosts": 0}, {"floor_ghosts": 0}
+        kept, out = floor.drop_floor_ghosts(tri, segs, rig.arrays, pl, params, scene, counts)
+        kept_r, out_r = ref.drop_floor_ghosts(tri, segs, rig.arrays, pl, params, scene, counts_r)
+        assert counts == counts_r and out.tolist() == out_r.tolist()
+        _same_tracklets(kept, kept_r)
+
+
+def test_ghost_test_random_clusters_are_not_trivial():
+    """Over the random cases some two-view clusters in the air are ghosts and some are kept."""
+    ghosts = kept_two = 0
+    for seed in range(25):
+        segs, rig, tri, params, scene = _ghost_case(seed)
+        kept, _ = floor.drop_floor_ghosts(tri, segs, rig.arrays, PLANES, params, scene, {"floor_ghosts": 0})
+        ghosts += len(tri) - len(kept)
+        kept_two += int(((kept.members >= 0).sum(1) == 2).sum())
+    assert ghosts > 5 and kept_two > 5
