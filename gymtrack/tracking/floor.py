@@ -25,6 +25,9 @@ inside the performance space and in the air, keeps the plane.
 Output: :class:`~.types.WindowTracklets3D` with ``xyz`` the body centre above the ground
 position (half the height), ``top_z`` the height, ``bottom_z`` 0, source ``PLANE`` (a
 ray-plane intersection) where observed.
+
+:func:`floor_stage` and the ghost test of :func:`drop_floor_ghosts` are one compiled call each
+(:mod:`._kernels.floor`; the numpy code they replaced is ``tests/reference/floor.py``).
 """
 
 from __future__ import annotations
