@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ...geometry.primitives import RAY_OK, plane_offset, ray_direction, ray_plane
+from ...geometry.primitives import plane_offset, ray_direction, ray_plane
 from ..types import INTERPOLATED, PLANE
 from .clustering import complete_linkage
 from .sample import sample
