@@ -34,7 +34,7 @@ from .single_view import IoUTracker
 from .types import WindowTracklets, WindowTracklets3D
 
 FRAMES = 3  #: boxes of a new 2D track compared with the prediction (it drifts with time)
-GATE = 0.6  #: mean box-centre offset from the projected prediction, in box widths / heights
+GATE = 1.0  #: mean box-centre offset from the projected prediction, in box widths / heights
 COUNTS = ("links_3d_motion", "new_2d_tracks_unlinked")
 
 
@@ -70,7 +70,7 @@ def motion_distances(P: np.ndarray, old_camera: np.ndarray, old_frame: np.ndarra
         off = (uv - boxes[None, ..., :2]) / boxes[None, ..., 2:]
         d = np.linalg.norm(off, axis=-1)  # (L, T, n)
         d = np.where(ok[None] & (h[..., 2] > 0), d, np.nan)
-        bad = np.isnan(d).any(axis=-1) & ok[None].any(axis=-1)  # a box with no prediction in front
+        bad = (np.isnan(d) & ok[None]).any(axis=-1)  # a box with no prediction in front of the camera
         out = np.nansum(np.where(ok[None], d, 0.0), axis=-1) / ok.sum(axis=-1)[None]
     out[bad | ~ok.any(axis=-1)[None]] = np.nan
     return out
@@ -93,25 +93,33 @@ class MotionLinker:
         self.P, self.step_frames, self.width = np.asarray(P, np.float64), int(step), int(width)
         self.max_gap, self.max_speed, self.counts, self.gate = int(max_gap), float(max_speed), counts, float(gate)
         self.start: int | None = None  # the previous window's start
-        # per (tracklet, view) of the previous window: camera, 2D track, last observed frame (n,)
-        # and the 3D tracklet's end: frame (n,), xyz (n, 3), velocity (n, 3)
+        # per (tracklet, view) of the previous window: camera, the view's 2D track (-1: none
+        # yet), its last observed frame, the 3D track, and the tracklet's end: frame, xyz, velocity
         self.ends: tuple[np.ndarray, ...] = ()
+        self.view_track: dict[int, np.ndarray] = {}  # live 3D track -> (C,) its 2D track per view
 
     def __len__(self) -> int:
-        return len(self.ends[0]) if self.ends else 0
+        return (len(self.ends[0]) if self.ends else 0) + len(self.view_track)
 
     def remember(self, cur: WindowTracklets3D, segs: WindowTracklets) -> None:
         """The linked tracklets (M, W) of a window and its segments (``members`` index them)."""
         self.start = cur.start
-        if not len(cur):
-            self.ends = ()
+        M, C = cur.members.shape
+        if not M:
+            self.ends, self.view_track = (), {}
             return
         lf, lx, lv = tracklet_ends(cur.xyz, cur.valid, cur.start, self.max_speed)
-        m, c = np.nonzero(cur.members >= 0)
-        s = cur.members[m, c]
-        obs = segs.observed[s]
-        last_obs = segs.start + obs.shape[1] - 1 - np.argmax(obs[:, ::-1], axis=1)
-        self.ends = (segs.camera[s], segs.track2d[s], last_obs, lf[m], lx[m], lv[m])
+        has = cur.members >= 0
+        s = np.maximum(cur.members, 0)
+        obs = segs.observed[s] if len(segs) else np.zeros((M, C, cur.valid.shape[1]), bool)  # (M, C, W)
+        last_obs = np.where(has, segs.start + obs.shape[-1] - 1 - np.argmax(obs[..., ::-1], axis=-1), -1 << 40)
+        ids = segs.track2d[s] if len(segs) else np.zeros((M, C), np.int64)
+        # a view without a member keeps the 2D track it had (or adopted) before
+        before = np.stack([self.view_track.get(t, np.full(C, -1, np.int64)) for t in cur.track_id.tolist()])
+        ids = np.where(has, ids, before)
+        self.view_track = dict(zip(cur.track_id.tolist(), ids))
+        m = np.repeat(np.arange(M), C)
+        self.ends = (np.tile(np.arange(C), M), ids.ravel(), last_obs.ravel(), cur.track_id[m], lf[m], lx[m], lv[m])
 
     def step(self, start: int, rows: dict, iou: IoUTracker, seen: np.ndarray) -> None:
         """Before the window at ``start`` is cut: its new 2D tracks that continue a 3D track's
@@ -129,29 +137,39 @@ class MotionLinker:
         self.counts["new_2d_tracks_unlinked"] += len(new) - linked
 
     def _link(self, new: np.ndarray, frame: np.ndarray, track2d: np.ndarray, rows: dict, iou: IoUTracker) -> int:
-        _, keep = np.unique(self.ends[1], return_index=True)  # one entry per old 2D track
-        cam_o, t_o, last_o, lf, lx, lv = (a[keep] for a in self.ends)
+        t_all = self.ends[1]
+        _, keep = np.unique(np.where(t_all >= 0, t_all, -1 - np.arange(len(t_all))), return_index=True)
+        cam_o, t_o, last_o, tid, lf, lx, lv = (a[keep] for a in self.ends)  # one entry per old 2D track
         linked = 0
         for _ in range(3):  # a track broken twice in one window: its second piece joins in the next round
             # the old track's last box: in the rows still held, else where the previous window saw it
-            held = member(track2d, t_o)
             last = last_o.copy()
+            held = member(track2d, t_o[t_o >= 0])
             if held.any():
-                pos = np.searchsorted(t_o, track2d[held])
-                np.maximum.at(last, pos, frame[held])
+                known = np.flatnonzero(t_o >= 0)
+                order = known[np.argsort(t_o[known])]
+                np.maximum.at(last, order[np.searchsorted(t_o[order], track2d[held])], frame[held])
             frames, boxes, ok = first_boxes(frame, track2d, rows["ubox"], new, FRAMES)
             cam_n = np.zeros(len(new), np.int64)
             at = member(track2d, new)
             cam_n[np.searchsorted(new, track2d[at])] = rows["camera"][at]
             D = motion_distances(self.P, cam_o, lf, lx, lv, frames, boxes, ok)
-            gap = frames[:, 0][None, :] - last[:, None]  # (L, T)
-            D[(cam_o[:, None] != cam_n[None, :]) | (gap < 1) | (gap > self.max_gap + 1)] = np.nan
+            gap = frames[:, 0][None, :] - last[:, None]  # (L, T); a view with no 2D track yet: any
+            late = ((gap < 1) | (gap > self.max_gap + 1)) & (t_o >= 0)[:, None]
+            D[(cam_o[:, None] != cam_n[None, :]) | late] = np.nan
             r, c = link(D, self.gate)
             if not len(r):
                 break
-            for old, nw in zip(t_o[r].tolist(), new[c].tolist()):
-                track2d[track2d == nw] = old
-            iou.rename(new[c], t_o[r])
+            old = t_o[r]
+            adopt = old < 0  # the view's first 2D track of this 3D track: kept as it is
+            for k in np.flatnonzero(adopt).tolist():
+                t_o[r[k]] = new[c[k]]
+                self.view_track[int(tid[r[k]])][cam_o[r[k]]] = new[c[k]]
+            ren = ~adopt
+            for o, nw in zip(old[ren].tolist(), new[c[ren]].tolist()):
+                track2d[track2d == nw] = o
+            if ren.any():
+                iou.rename(new[c[ren]], old[ren])
             linked += len(r)
             new = np.delete(new, c)
             if not len(new):
