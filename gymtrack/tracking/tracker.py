@@ -131,7 +131,7 @@ class Tracker:
         self.fusion = (PlaneRayFusion(rig, scene, self.plane_arrays, self.opposite, self.counts)
                        if self.plus and p.fuse_plane else None)
         # cascade+: 2D tracks the IoU tracker broke, joined by 3D motion (.motion_link)
-        self.motion = (MotionLinker(self.P, p.step, p.window, p.step, p.max_speed, self.counts)
+        self.motion = (MotionLinker(self.P, p.step, p.window, p.max_age, p.max_speed, self.counts)
                        if self.plus and association == "iou" else None)
         self.target = TargetStage(rig, scene)
         # stream position
