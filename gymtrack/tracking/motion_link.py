@@ -141,7 +141,7 @@ class MotionLinker:
         _, keep = np.unique(np.where(t_all >= 0, t_all, -1 - np.arange(len(t_all))), return_index=True)
         cam_o, t_o, last_o, tid, lf, lx, lv = (a[keep] for a in self.ends)  # one entry per old 2D track
         linked = 0
-        for _ in range(3):  # a track broken twice in one window: its second piece joins in the next round
+        for _ in range(self.step_frames):  # a track broken again in one window: the next piece joins in the next round
             # the old track's last box: in the rows still held, else where the previous window saw it
             last = last_o.copy()
             held = member(track2d, t_o[t_o >= 0])
