@@ -9,7 +9,9 @@ in the frames the previous window did not cover) continues the 2D track that a 3
 previous window had in that view when
 
 * that old 2D track ended before the new one starts (the view lost the person), at most
-  ``max_gap`` frames before, and
+  ``max_gap`` frames before (the tracker passes ``max_age``: the gap the IoU tracker itself
+  would have bridged, had the boxes overlapped; longer gaps are re-linking's, :mod:`.linking`),
+  or the 3D track never had a 2D track in that view (the new one is then adopted as it is), and
 * the new track's first ``FRAMES`` boxes lie close to the projection (``P``, undistorted
   pixels) of the 3D track's constant-velocity prediction (:func:`.linking.tracklet_ends`):
   the mean offset of the box centre from the projected body centre, in box widths (x) and

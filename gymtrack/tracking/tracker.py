@@ -33,7 +33,8 @@ it links to), linked after the candidates of several views; the target back-fill
 Modes (the paper's ablation, Table 4): ``cascade`` (the method), ``triangulation`` (no plane
 fallback; single-tracklet clusters are dropped and opposite pairs triangulated -- close to
 UniMMT), ``plane`` (every segment goes to the plane stage); beyond the paper, ``cascade+``: the
-cascade with the floor hypothesis (:mod:`.floor`), and with ``params.fuse_plane`` two-view clusters
+cascade with the floor hypothesis (:mod:`.floor`), a view's 2D tracks the IoU tracker broke joined
+by 3D motion (:mod:`.motion_link`), and with ``params.fuse_plane`` two-view clusters
 fused with the plane by their uncertainty (:mod:`.fusion`, experimental). ``association="oracle"``
 replaces the IoU tracker and Algorithm 1 by ground-truth ids carried in ``Detections.track_id``
 (>= 0; -1 = a false positive, dropped and counted): the limit better association could reach. The
