@@ -143,3 +143,14 @@ class IoUTracker:
         self.box, self.camera, self.last, self.track_id, ids, self.next_id = iou_commit(
             tb, tc, tl, ti, self.next_id, int(frame), camera, cb, r, c)
         return ids
+
+    def rename(self, new: np.ndarray, old: np.ndarray) -> None:
+        """Live tracks ``new`` (n,) continue under the ids ``old`` (n,) (cascade+'s link by 3D
+        motion, :mod:`.motion_link`); an old track still live is ended (its successor took over)."""
+        order = np.argsort(new)
+        new, old = np.asarray(new)[order], np.asarray(old)[order]
+        gone = np.isin(self.track_id, old)
+        self.box, self.camera, self.last, self.track_id = (np.ascontiguousarray(self.box[:, ~gone]),
+                                                           self.camera[~gone], self.last[~gone], self.track_id[~gone])
+        at = np.flatnonzero(np.isin(self.track_id, new))
+        self.track_id[at] = old[np.searchsorted(new, self.track_id[at])]

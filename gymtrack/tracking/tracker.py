@@ -33,7 +33,8 @@ it links to), linked after the candidates of several views; the target back-fill
 Modes (the paper's ablation, Table 4): ``cascade`` (the method), ``triangulation`` (no plane
 fallback; single-tracklet clusters are dropped and opposite pairs triangulated -- close to
 UniMMT), ``plane`` (every segment goes to the plane stage); beyond the paper, ``cascade+``: the
-cascade with the floor hypothesis (:mod:`.floor`), and with ``params.fuse_plane`` two-view clusters
+cascade with the floor hypothesis (:mod:`.floor`), a view's 2D tracks the IoU tracker broke joined
+by 3D motion (:mod:`.motion_link`), and with ``params.fuse_plane`` two-view clusters
 fused with the plane by their uncertainty (:mod:`.fusion`, experimental). ``association="oracle"``
 replaces the IoU tracker and Algorithm 1 by ground-truth ids carried in ``Detections.track_id``
 (>= 0; -1 = a false positive, dropped and counted): the limit better association could reach. The
@@ -66,6 +67,7 @@ from .clustering import complete_linkage, tracklet_distances
 from .floor import drop_floor_ghosts, floor_split, solo_inside
 from .fusion import PlaneRayFusion
 from .linking import WindowLinker
+from .motion_link import COUNTS as MOTION_COUNTS, MotionLinker
 from .plane_fallback import plane_stage
 from .reconstruct import cluster_members, opposite_clusters, outliers, triangulate_clusters
 from .single_view import IoUTracker
@@ -129,6 +131,9 @@ class Tracker:
         self.linker = WindowLinker(p.step, p.link_3d, p.relink_frames, p.max_speed, self.counts, by_2d=self.plus)
         self.fusion = (PlaneRayFusion(rig, scene, self.plane_arrays, self.opposite, self.counts)
                        if self.plus and p.fuse_plane else None)
+        # cascade+: 2D tracks the IoU tracker broke, joined by 3D motion (.motion_link)
+        self.motion = (MotionLinker(self.P, p.step, p.window, p.max_age, p.max_speed, self.counts)
+                       if self.plus and association == "iou" else None)
         self.target = TargetStage(rig, scene)
         # stream position
         self.first_frame: int | None = None
@@ -186,7 +191,8 @@ class Tracker:
 
     def state_size(self) -> int:
         """Number of stored rows/items over all internal state (for checking bounded memory)."""
-        return len(self.iou) + len(self.table) + len(self.records) + len(self.linker) + len(self.target)
+        return (len(self.iou) + len(self.table) + len(self.records) + len(self.linker) + len(self.target)
+                + len(self.motion or ()))
 
     def summary(self) -> dict:
         """Counts and timings so far: frames with boxes, detections read / used / dropped per
@@ -206,7 +212,7 @@ class Tracker:
             "target_frames": int(self.target.frames),
             "target_switches": int(self.target.switches),
             "target_identifications": int(self.target.identifications),
-            **{k: int(self.counts[k]) for k in COUNTS},
+            **{k: int(self.counts[k]) for k in COUNTS + (MOTION_COUNTS if self.motion is not None else ())},
             "seconds": {k: round(v, 6) for k, v in self.timings.items()},
             "seconds_total": round(total, 6),
             "fps": round(frames / total, 1) if total > 0 else None,
@@ -280,6 +286,8 @@ class Tracker:
         if new is not None and self.association == "iou":
             self.read += np.bincount(new, minlength=self.n_cameras)
         t = self.table.rows
+        if self.motion is not None:
+            self.motion.step(start, t, self.iou, self.linker.prev_seen)
         segs, dropped = build_window(start, self.width, t["frame"], t["camera"], t["track2d"], t["ubox"], t["det"],
                                      p.min_tracklet_boxes, p.max_age)
         self.counts["windows"] += 1
@@ -378,6 +386,8 @@ class Tracker:
         floor_rows = np.zeros(len(cur), bool)  # cascade+: the floor tracklets, after the triangulated ones
         floor_rows[len(tri or ()):][:len(floor or ())] = True
         cur = self.linker.step(cur, segs.track2d, solo, floor_rows)
+        if self.motion is not None:
+            self.motion.remember(cur, segs)
         self.records.add(cur, segs, self._window_index)
         self._window_index += 1
         self._next_start = start + self.step

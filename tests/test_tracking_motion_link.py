@@ -1,0 +1,86 @@
+"""cascade+'s link of a view's 2D tracks by 3D motion (tracking.motion_link): the projected
+prediction checked against OpenCV, and a two-view scene at a low frame rate where the IoU
+tracker breaks one view's track every frame, but the 3D track keeps one id."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from conftest import make_detections, ring_rig, simple_scene
+from gymtrack.tracking.motion_link import first_boxes, motion_distances
+from gymtrack.tracking.offline import track_detections
+
+
+def _project(cam, X):
+    rvec, _ = cv2.Rodrigues(cam.R)
+    uv, _ = cv2.projectPoints(np.asarray(X, float).reshape(-1, 1, 3), rvec, cam.t.astype(float), cam.K, None)
+    return uv.reshape(-1, 2)
+
+
+def test_motion_distances_against_opencv():
+    rig = ring_rig([0, 90])
+    x0, v = np.array([0.5, -1.0, 1.0]), np.array([0.3, 0.0, 0.0])  # last point (frame 10), m per frame (across view 1)
+    frames = np.array([[12, 13, 0]])
+    ok = np.array([[True, True, False]])
+    uv = _project(rig[1], x0 + v * np.array([2, 3])[:, None])  # the prediction at frames 12, 13
+    boxes = np.zeros((1, 3, 4))
+    boxes[0, :2] = np.c_[uv + [[10.0, 0.0], [0.0, 0.0]], np.full((2, 2), [40.0, 100.0])]  # frame 12: 10 px = 0.25 w off
+    D = motion_distances(rig.projections, np.array([1, 1]), np.array([10, 10]), np.stack([x0, x0]),
+                         np.stack([v, -v]), frames, boxes, ok)
+    assert np.isclose(D[0, 0], 0.25 / 2, atol=1e-6)  # mean of 0.25 and 0 over the two boxes
+    assert D[1, 0] > 1.0  # moving the other way: far from the boxes
+
+
+def test_first_boxes_takes_each_tracks_earliest():
+    frame = np.array([5, 3, 4, 9, 2, 7])
+    track = np.array([1, 1, 1, 1, 8, 8])
+    box = np.arange(24.0).reshape(6, 4)
+    f, b, ok = first_boxes(frame, track, box, np.array([1, 8]), 3)
+    assert f.tolist() == [[3, 4, 5], [2, 7, 0]] and ok.tolist() == [[True] * 3, [True, True, False]]
+    assert np.array_equal(b[0, 0], box[1]) and np.array_equal(b[1, 1], box[5])
+
+
+def _fast_walker():
+    """Two views at 90 degrees; a person stands, speeds up along y over 10 frames and walks on
+    at 0.15 m a frame. The IoU threshold is 0.7, so in view 0, where the walk crosses the image,
+    consecutive boxes (0.4 m wide) overlap too little once the person moves (IoU 0.45): the
+    per-frame shift against the box is what a low frame rate does to a walker. Along view 1's
+    axis the boxes keep overlapping."""
+    rig = ring_rig([0, 90])
+    y = -3.0 + np.cumsum(np.r_[np.zeros(10), np.linspace(0.0, 0.15, 10), np.full(20, 0.15)])
+    traj = np.stack([np.full(y.size, 1.5), y, np.full(y.size, 0.85)], axis=1)[None]
+    det, _ = make_detections(rig, traj)
+    det = det.__class__(det.frame, det.camera, det.box, det.score, np.full(len(det), -1), det.camera_names)
+    return rig, traj, det
+
+
+def test_low_frame_rate_walker_keeps_one_id_by_3d_motion():
+    rig, traj, det = _fast_walker()
+    scene = simple_scene(relink_frames=0, iou_threshold=0.7)
+    res = track_detections(rig, scene, det, mode="cascade+")
+    s = res.summary
+    assert s["links_3d_motion"] >= 5  # view 0's one-box tracks continued the walker's
+    fast = res.tracks.frame >= 22
+    assert np.unique(res.tracks.track_id).size == 1
+    assert fast.sum() >= 15  # the walk is tracked to the end ...
+    err = np.linalg.norm(res.tracks.xyz[fast] - traj[0, res.tracks.frame[fast]], axis=1)
+    assert err.max() < 0.2  # ... from both views (the plane x = 0 is 1.5 m away)
+    # without it (the paper's cascade) view 0's pieces are too short: the walk is lost or on the plane
+    base = track_detections(rig, scene, det, mode="cascade")
+    bf = base.tracks.frame >= 22
+    assert "links_3d_motion" not in base.summary
+    assert bf.sum() == 0 or np.linalg.norm(base.tracks.xyz[bf] - traj[0, base.tracks.frame[bf]], axis=1).max() > 1.0
+
+
+def test_iou_tracker_rename_continues_the_old_id():
+    from gymtrack.tracking.single_view import IoUTracker
+
+    t = IoUTracker(0.5, max_age=2)
+    a = t.update(0, np.array([0, 0]), np.array([[100.0, 100, 40, 100], [400, 100, 40, 100]]))
+    b = t.update(1, np.array([0]), np.array([[160.0, 100, 40, 100]]))  # track a[0] jumped: a new id
+    assert b[0] not in a
+    t.rename(b, a[:1])  # 3D motion says it is a[0]; a[0]'s own entry ends
+    assert sorted(t.track_id.tolist()) == sorted([a[0], a[1]])
+    c = t.update(2, np.array([0, 0]), np.array([[165.0, 100, 40, 100], [400, 100, 40, 100]]))
+    assert c.tolist() == [a[0], a[1]]
