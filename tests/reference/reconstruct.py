@@ -1,6 +1,6 @@
 """Numpy references of the triangulation stage's kernels (paper Section III-B, Eq. 3-4):
-the outlier test and the gathering of a window's cluster pixels, triangulated with the batched
-numpy solver :func:`gymtrack.geometry.triangulation.triangulate_views`."""
+the outlier test and the gathering of a window's cluster pixels, triangulated with the public
+:func:`gymtrack.geometry.triangulation.triangulate_views` (itself checked against OpenCV and scipy)."""
 
 from __future__ import annotations
 
