@@ -8,10 +8,8 @@ of Section III-B / Eq. 14 (:func:`project_point`).
 Plain scalar functions (``inline="always"``): the tracker's kernels call them inside their
 loops, and the public API of :mod:`gymtrack.geometry` runs the same code through the small
 loops at the end of this module (:func:`.plane.intersect_rays_plane` for Eq. 7,
-:func:`.epipolar.epipolar_distance` for Eq. 1). Not (yet) :func:`.triangulation.triangulate`:
-its batched numpy Gauss-Newton and the per-point :func:`triangulate_points` agree to ~1e-8 m
-only (accept / reject decisions of nearly equal steps), and the MvPT baseline's output must not
-move; nor :meth:`.camera.Camera.project`, which the simulator uses (``r2 ** 3`` rounds
+:func:`.epipolar.epipolar_distance` for Eq. 1) and :func:`.triangulation.triangulate` (Eq. 3,
+:func:`triangulate_points`). Not :meth:`.camera.Camera.project`, which the simulator uses (``r2 ** 3`` rounds
 differently from numpy's ``pow``). Cameras are indexed in the stacked
 arrays of :class:`~.arrays.RigArrays` (``R[c]``...), so a kernel never slices per call.
 """
