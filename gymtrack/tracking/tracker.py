@@ -83,7 +83,7 @@ COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulate
           "plane_tracklets", "segments_dropped_single", "tracklets_outliers", "links", "relinks", "plane_single_view",
           "plane_single_view_unlinked", "floor_tracklets", "segments_to_floor", "floor_ghosts",
           "segments_dropped_ghost", "plane_single_view_outside", "links_2d", "fused_plane", "fused_triangulated",
-          "fused_to_plane_stage")
+          "fused_to_plane_stage", "fused_inconsistent")
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
 
 
