@@ -65,7 +65,7 @@ from ._kernels import warm_up
 from ._kernels.single_view import frame_rows_check
 from .clustering import complete_linkage, tracklet_distances
 from .floor import drop_floor_ghosts, floor_split, solo_inside
-from .fusion import PlaneRayFusion
+from .fusion import COUNTS as FUSION_COUNTS, PlaneRayFusion
 from .linking import WindowLinker
 from .motion_link import COUNTS as MOTION_COUNTS, MotionLinker
 from .plane_fallback import plane_stage
@@ -83,7 +83,7 @@ COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulate
           "plane_tracklets", "segments_dropped_single", "tracklets_outliers", "links", "relinks", "plane_single_view",
           "plane_single_view_unlinked", "floor_tracklets", "segments_to_floor", "floor_ghosts",
           "segments_dropped_ghost", "plane_single_view_outside", "links_2d", "fused_plane", "fused_triangulated",
-          "fused_to_plane_stage", "fused_inconsistent")
+          "fused_to_plane_stage")
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
 
 
@@ -212,7 +212,8 @@ class Tracker:
             "target_frames": int(self.target.frames),
             "target_switches": int(self.target.switches),
             "target_identifications": int(self.target.identifications),
-            **{k: int(self.counts[k]) for k in COUNTS + (MOTION_COUNTS if self.motion is not None else ())},
+            **{k: int(self.counts[k]) for k in COUNTS + (MOTION_COUNTS if self.motion is not None else ())
+               + (FUSION_COUNTS if self.fusion is not None else ())},
             "seconds": {k: round(v, 6) for k, v in self.timings.items()},
             "seconds_total": round(total, 6),
             "fps": round(frames / total, 1) if total > 0 else None,
