@@ -160,39 +160,66 @@ class PlaneRayFusion:
 
     def step(self, segs: WindowTracklets, members: np.ndarray, fallback: np.ndarray, multi: np.ndarray
              ) -> tuple[WindowTracklets3D | None, np.ndarray, np.ndarray]:
-        """The window's two-view clusters fused with the plane.
+        """The window's non-opposite two-view clusters fused with the plane (instead of Eq. 3).
 
         members: (M, C) clusters; fallback, multi: (M,) bool, the paper's choice of clusters for
         the plane stage and for triangulation. Returns the fused 3D tracklets (None: none) and
         the new fallback and multi masks (the clusters fused here are in neither; the others
-        keep the paper's route).
+        keep the paper's route). Opposite pairs go to the plane stage as in the paper, whose
+        Algorithm 1 on Eq. 8 may join them with other views (Eq. 2 is ambiguous for opposite
+        views: it splits a person seen by four views into two opposite pairs); :meth:`refine`
+        then fuses the plane stage's two-view tracklets.
         """
         has = members >= 0
-        two = has.sum(axis=1) == 2
+        two = (has.sum(axis=1) == 2) & ~fallback
         if self.planes is None or not two.any():
             return None, fallback, multi
         idx = np.flatnonzero(two)
-        cams = np.ascontiguousarray(np.sort(np.argsort(~has[idx], axis=1, kind="stable")[:, :2], axis=1))  # (m, 2)
-        seg = members[idx[:, None], cams]  # (m, 2)
+        seg = np.sort(np.where(has[idx], members[idx], np.iinfo(np.int64).max), axis=1)[:, :2]  # (m, 2)
+        X, use = self._fuse(segs, seg)
+        self.counts["fused_triangulated"] += int((~use).sum())
+        if not use.any():
+            return None, fallback, multi
+        multi = multi.copy()
+        multi[idx[use]] = False
+        valid = np.isfinite(X[:, 0]).all(axis=-1)[use]  # (m', W): one ray and the plane give a point
+        return self._tracklets(segs, members[idx[use]], X[use], valid), fallback, multi
+
+    def refine(self, segs: WindowTracklets, pl: WindowTracklets3D) -> WindowTracklets3D:
+        """The plane stage's tracklets of exactly two views (``members`` index ``segs``), their
+        Eq. 9 averages replaced by the fused points where the pair is on the plane and consistent."""
+        has = pl.members >= 0
+        two = has.sum(axis=1) == 2
+        if self.planes is None or not two.any():
+            return pl
+        idx = np.flatnonzero(two)
+        seg = np.sort(np.where(has[idx], pl.members[idx], np.iinfo(np.int64).max), axis=1)[:, :2]
+        self.counts["fused_to_plane_stage"] += len(idx)
+        X, use = self._fuse(segs, seg)
+        if not use.any():
+            return pl
+        rows = idx[use]
+        ok = pl.valid[rows] & np.isfinite(X[use, 0]).all(axis=-1)  # (the plane stage's frames)
+        xyz, top, bottom = pl.xyz.copy(), pl.top_z.copy(), pl.bottom_z.copy()
+        xyz[rows] = np.where(ok[..., None], X[use, 0], xyz[rows])
+        top[rows] = np.where(ok, X[use, 1, :, 2], top[rows])
+        bottom[rows] = np.where(ok, X[use, 2, :, 2], bottom[rows])
+        return WindowTracklets3D(pl.start, xyz, top, bottom, pl.valid, pl.source, pl.n_views, pl.members, pl.track_id)
+
+    def _fuse(self, segs: WindowTracklets, seg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The kernel on the pairs of segments ``seg`` (m, 2) (of different cameras): the fused
+        points X (m, 3, W, 3) and which pairs pass the plane and consistency gates (and Eq. 8)."""
+        cams = np.ascontiguousarray(segs.camera[seg], dtype=np.int64)
         X, _, m2, chi2, eq8 = fuse_pairs(
             np.ascontiguousarray(segs.box[seg], dtype=np.float64), np.ascontiguousarray(segs.observed[seg]), cams,
             self.centres, self.back, self.focal, self.depth0, float(self.pixel_sigma), float(self.box_sigma),
             self.planes.normal, self.planes.point, float(self.plane_sigma), MIN_COS)
-        opp = self.opposite[cams[:, 0], cams[:, 1]]
         on = m2 <= PLANE_GATE
         consistent = chi2 <= CHI2_GATE
-        use = on & consistent & ~(opp & (eq8 > self.cluster_plane))
+        use = on & consistent & (eq8 <= self.cluster_plane)
         self.counts["fused_plane"] += int(use.sum())
         self.counts["fused_inconsistent"] += int((on & ~consistent).sum())
-        self.counts["fused_triangulated"] += int((~use & ~opp).sum())
-        self.counts["fused_to_plane_stage"] += int((~use & opp).sum())
-        if not use.any():
-            return None, fallback, multi
-        fallback, multi = fallback.copy(), multi.copy()
-        fallback[idx[use]] = False
-        multi[idx[use]] = False
-        valid = np.isfinite(X[:, 0]).all(axis=-1)[use]  # (m', W): one ray and the plane give a point
-        return self._tracklets(segs, members[idx[use]], X[use], valid), fallback, multi
+        return X, use
 
     @staticmethod
     def _tracklets(segs: WindowTracklets, members: np.ndarray, X: np.ndarray, valid: np.ndarray) -> WindowTracklets3D:

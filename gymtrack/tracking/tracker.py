@@ -363,6 +363,8 @@ class Tracker:
         self.counts["segments_to_plane"] += len(to_plane)
         if not len(pl):
             return None, floor
+        if self.fusion is not None:  # cascade+: two-view plane tracklets fused with the plane (.fusion)
+            pl = self.fusion.refine(sub, pl)
         bad = outliers(pl.xyz, pl.valid, self.space, p.max_speed)
         if bad.any():
             self.counts["tracklets_outliers"] += int(bad.sum())
