@@ -10,13 +10,14 @@ import numpy as np
 import pytest
 from scipy.optimize import least_squares
 
-from conftest import ring_rig, same
+from conftest import ring_rig, same, simple_scene
 from gymtrack.errors import InputError
 from gymtrack.geometry.arrays import PlaneArrays
 from gymtrack.geometry.plane import Plane, intersect_rays_plane
 from gymtrack.tracking._kernels.fusion import fuse_pairs
-from gymtrack.tracking.fusion import CHI2_GATE, fuse_rays_plane, fusion_chi2
-from gymtrack.tracking.plane_fallback import MIN_COS
+from gymtrack.tracking.fusion import CHI2_GATE, PlaneRayFusion, fuse_rays_plane, fusion_chi2
+from gymtrack.tracking.plane_fallback import MIN_COS, plane_stage
+from gymtrack.tracking.types import WindowTracklets
 from reference import fusion as ref
 
 W = 10
@@ -180,3 +181,44 @@ def test_invalid_sigmas_raise():
             fuse_rays_plane(o, d, s, np.ones(2, bool), np.array([0, 0, 1.0]), np.zeros(3), sig)
     # an invalid ray's sigma is not read
     fuse_rays_plane(o, d, np.array([0.1, np.nan]), np.array([True, False]), np.array([0, 0, 1.0]), np.zeros(3), 0.1)
+
+
+def _pair_window(rig, X, jump=None):
+    """Segments of one person at X (W, 3) in two views (exact boxes; ``jump``: (frame, offset) of
+    the second view's box: someone else at that frame)."""
+    box = np.zeros((2, W, 4))
+    for j, cam in enumerate(rig):
+        for w in range(W):
+            Y = X[w] + (jump[1] if jump is not None and j == 1 and w == jump[0] else 0)
+            top, mid, bot = (cam.project(np.array([Y + [0, 0, dz]]), distort=False)[0] for dz in (0.85, 0, -0.85))
+            box[j, w] = [mid[0], mid[1], 80, bot[1] - top[1]]
+    ones = np.ones((2, W), bool)
+    return WindowTracklets(0, np.arange(2), np.arange(2), box, ones, ones, np.arange(2 * W).reshape(2, W))
+
+
+@pytest.mark.parametrize("sigma", [1e-4, 0.1])
+def test_refine_fuses_the_plane_stages_two_view_tracklets(sigma):
+    """cascade+'s hook: an opposite pair the plane stage matched (Eq. 8, Eq. 9 average) gets the
+    fused points -- the Eq. 9 average itself when the prior is rigid -- and keeps Eq. 9 when its
+    boxes contradict each other at a frame."""
+    rig = ring_rig([0, 165])
+    X = np.stack([np.full(W, 0.15), np.linspace(-0.5, 0.5, W), np.full(W, 1.2)], axis=1)  # 15 cm off x = 0
+    scene = simple_scene(plane_sigma=sigma, fuse_plane=True)
+    planes = PlaneArrays.from_planes([Plane(np.zeros(3), np.array([1.0, 0, 0]))])
+    fusion = PlaneRayFusion(rig, scene, planes, np.array([[False, True], [True, False]]))
+    segs = _pair_window(rig, X)
+    pl = plane_stage(segs, rig, planes, 0.5)
+    assert len(pl) == 1 and (pl.members[0] >= 0).sum() == 2
+    out = fusion.refine(segs, pl)
+    assert fusion.counts["fused_plane"] == 1
+    if sigma < 1e-3:  # the limit: the paper's Eq. 9 average of the candidates
+        np.testing.assert_allclose(out.xyz, pl.xyz, atol=2e-3)
+    else:  # the fused point leaves the plane towards the truth, as far as the prior lets it
+        assert np.all((out.xyz[0, :, 0] > 0.01) & (out.xyz[0, :, 0] < 0.15))
+        assert np.linalg.norm(out.xyz[0] - X, axis=1).mean() < np.linalg.norm(pl.xyz[0] - X, axis=1).mean()
+    # a wrong box at one frame: inconsistent, the Eq. 9 points are kept
+    bad = _pair_window(rig, X, jump=(4, np.array([0.0, 0.3, 0.0])))
+    pl = plane_stage(bad, rig, planes, 0.5)
+    out = fusion.refine(bad, pl)
+    assert fusion.counts["fused_inconsistent"] == 1
+    np.testing.assert_array_equal(out.xyz, pl.xyz)

@@ -26,9 +26,18 @@ rays cross it (for rays across the plane, the Eq. 9 average of the Eq. 7 candida
 ``plane_sigma -> inf`` is triangulation. One ray and the plane also give a point (as the plane
 stage gives one from a view whose partner is missing at that frame).
 
+Where it applies (the association stays the paper's):
+
+* a non-opposite two-view cluster of Eq. 2 (:meth:`PlaneRayFusion.step`): fused instead of Eq. 3
+  when the tests below pass, else triangulated by Eq. 3 as in the paper;
+* opposite pairs go to the plane stage as in the paper (through ``cascade+``'s floor
+  hypothesis), whose Algorithm 1 on Eq. 8 may join them with other views: Eq. 2 is ambiguous
+  for opposite views and can split a person seen by four views into two opposite pairs, which,
+  fused one by one, became two tracks of one person. The plane stage's tracklets of exactly two
+  views then get the fused points instead of the Eq. 9 average (:meth:`PlaneRayFusion.refine`).
+
 The model only holds for a person on the plane whose two boxes are of the same body, so a
-cluster is fused only when both tests pass, otherwise it takes the paper's route (Eq. 3, or the
-plane stage for opposite views, whose triangulation is unreliable):
+pair is fused only when
 
 * on the plane: the plane's Mahalanobis distance from the two-ray point
   (``(n . (X_t - X^p))^2 / (n^T A_t^-1 n + sigma_n^2)``, median over the window's frames) is
@@ -37,16 +46,21 @@ plane stage for opposite views, whose triangulation is unreliable):
   squared residuals are below ``CHI2_GATE`` (chi-square, 2 degrees of freedom: 2 x 2 across the
   rays + 1 along the normal - 3 unknowns, p = 0.001). Without it one frame where the IoU tracker
   handed a view's 2D track to someone else (boxes metres apart) drew the least-squares compromise
-  metres off the plane, and Eq. 4 then dropped the whole tracklet: the target was lost (this, and
-  the next point, were why fusion doubled the n_cam = 2 failure rate);
-* opposite pairs also keep the paper's Eq. 8 test (candidates more than ``cluster_plane`` apart
-  on average go to the plane stage).
+  metres off the plane, and Eq. 4 then dropped the whole tracklet: the target was lost;
+* Eq. 8 agrees: the two views' Eq. 7 candidates are within ``cluster_plane`` on average.
 
 ``plane_sigma`` trades: small values follow the plane like the paper (right where the body's
 centre stays on it: the default suite's balance beam, vault, rings and parallel bars keep it
 within 2-7 cm RMS), large values follow the rays (right on the pommel horse, ~35 cm RMS, and
 the bars, 13-19 cm) but let noisy opposite rays, which fix depth to only ~``s / sin`` of their
 angle, pull the point off. 0.1 m is the default (benchmark in the README); set it per scene.
+
+Why the first version doubled the n_cam = 2 failure rate (measured on the default suite): one-ray
+frames came out NaN yet valid (an absent ray's NaN direction times its zero weight poisoned
+``A``), which broke cross-window links; the missing consistency test (above: vault, FR 100 %);
+opposite pairs fused one by one, outside the plane stage's association (above: duplicate tracks,
+identity switches); and ``plane_sigma`` 0.25 m, looser than the body's real spread on most
+apparatus (AED). Its per-window numpy code halved the speed; the kernel costs ~5 % of cascade+.
 
 Speed: one compiled call per window (:func:`._kernels.fusion.fuse_pairs`); its numpy reference
 is ``tests/reference/fusion.py``. :func:`fuse_rays_plane` is the same least squares as an array

@@ -35,7 +35,8 @@ fallback; single-tracklet clusters are dropped and opposite pairs triangulated -
 UniMMT), ``plane`` (every segment goes to the plane stage); beyond the paper, ``cascade+``: the
 cascade with the floor hypothesis (:mod:`.floor`), a view's 2D tracks the IoU tracker broke joined
 by 3D motion (:mod:`.motion_link`), and with ``params.fuse_plane`` two-view clusters
-fused with the plane by their uncertainty (:mod:`.fusion`, experimental). ``association="oracle"``
+fused with the plane by their uncertainty (:mod:`.fusion`: non-opposite pairs instead of Eq. 3,
+the plane stage's two-view tracklets instead of Eq. 9). ``association="oracle"``
 replaces the IoU tracker and Algorithm 1 by ground-truth ids carried in ``Detections.track_id``
 (>= 0; -1 = a false positive, dropped and counted): the limit better association could reach. The
 plane stage then still applies its own Eq. 8 test, within each ground-truth person only.
