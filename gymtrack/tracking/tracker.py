@@ -71,6 +71,7 @@ from .motion_link import COUNTS as MOTION_COUNTS, MotionLinker
 from .plane_fallback import plane_stage
 from .reconstruct import cluster_members, opposite_clusters, outliers, triangulate_clusters
 from .single_view import IoUTracker
+from .single_view_motion import COUNTS as VIEW_COUNTS, MotionIoUTracker
 from .target import TargetStage
 from .types import TrackerOutput, Tracks3D, WindowTracklets, WindowTracklets3D
 from .records import BoxTable, WindowRecords
@@ -126,8 +127,10 @@ class Tracker:
         # (C, C) opposite camera pairs, judged at the scene's focus, the apparatus (see reconstruct)
         self.opposite = opposite_pairs(rig, scene.focus_point, p.opposite_angle_deg)
         warm_up()  # numba's compile / cache load of every kernel: once per process, never tracking time
-        self.iou = IoUTracker(p.iou_threshold, p.max_age)
         self.counts: dict = defaultdict(int)
+        # cascade+: the per-view tracker also links by predicted image motion (.single_view_motion)
+        self.iou = (MotionIoUTracker(scene.fps, p.iou_threshold, p.max_age, counts=self.counts)
+                    if self.plus and association == "iou" else IoUTracker(p.iou_threshold, p.max_age))
         self.linker = WindowLinker(p.step, p.link_3d, p.relink_frames, p.max_speed, self.counts, by_2d=self.plus)
         self.fusion = (PlaneRayFusion(rig, scene, self.plane_arrays, self.opposite, self.counts)
                        if self.plus and p.fuse_plane else None)
@@ -212,7 +215,7 @@ class Tracker:
             "target_frames": int(self.target.frames),
             "target_switches": int(self.target.switches),
             "target_identifications": int(self.target.identifications),
-            **{k: int(self.counts[k]) for k in COUNTS + (MOTION_COUNTS if self.motion is not None else ())},
+            **{k: int(self.counts[k]) for k in COUNTS + ((MOTION_COUNTS + VIEW_COUNTS) if self.motion is not None else ())},
             "seconds": {k: round(v, 6) for k, v in self.timings.items()},
             "seconds_total": round(total, 6),
             "fps": round(frames / total, 1) if total > 0 else None,
