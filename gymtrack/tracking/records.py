@@ -6,7 +6,10 @@
 * :class:`WindowRecords` -- every window's linked 3D points and the detections of their member
   segments. When frames become final, Eq. 12 averages the estimates of the windows covering a
   frame (:func:`~.linking.merge_overlaps`) and every detection goes to the track of the latest
-  window that used it.
+  window that used it. Beyond the paper (``cascade+``, issue 12, ``superseded=True``): a
+  window's estimate of a frame whose detections there all went to *other* tracks of later
+  windows is dropped before Eq. 12 (:func:`superseded`): the later window re-assigned that
+  person's boxes, so the earlier estimate would duplicate them.
 """
 
 from __future__ import annotations
@@ -130,6 +133,30 @@ def _concat_estimates(parts: list[Tracks3D]) -> Tracks3D:
     return parts[0] if len(parts) == 1 else Tracks3D.concat(parts)
 
 
+def superseded(frame: np.ndarray, track_id: np.ndarray, window: np.ndarray, members: MemberRows) -> np.ndarray:
+    """(n,) bool: estimates (frame, track_id, window) (n,) that had member detections in their
+    frame and lost all of them to another track (each detection goes to the latest window's
+    track, as in :meth:`WindowRecords.boxes`). Estimates without detections in their frame
+    (interpolated or held boxes) are never superseded."""
+    det, win, tid = members.det, members.window, members.track_id
+    if not len(det) or not len(frame):
+        return np.zeros(len(frame), bool)
+    order = np.lexsort((-win, det))  # per detection, the latest window first
+    d = det[order]
+    first = np.ones(len(d), bool)
+    np.not_equal(d[1:], d[:-1], out=first[1:])
+    winner = np.repeat(tid[order][first], np.diff(np.append(np.flatnonzero(first), len(d))))
+    kept = np.empty(len(det), bool)
+    kept[order] = winner == tid[order]
+    # per (frame, track, window) of the members: does any member detection still belong to it?
+    span = int(max(window.max(), win.max())) + 1
+    tspan = int(max(track_id.max(), tid.max())) + 1
+    key_m = (members.frame * tspan + tid) * span + win
+    key_e = (frame * tspan + track_id) * span + window
+    has = np.isin(key_e, key_m)
+    return has & ~np.isin(key_e, key_m[kept])
+
+
 class WindowRecords:
     """The windows' linked 3D points and member detections until their frames are final.
 
@@ -138,8 +165,11 @@ class WindowRecords:
     :class:`MemberRows`.
     """
 
-    def __init__(self):
+    def __init__(self, superseded: bool = False):
+        self.superseded = bool(superseded)  # cascade+: drop the estimates whose boxes later windows took
+        self.dropped = 0  # estimates dropped that way
         self._estimates: list[Tracks3D] = []
+        self._windows: list[np.ndarray] = []  # the window index of every estimate (parallel to _estimates)
         self._members: list[MemberRows] = []
 
     def __len__(self) -> int:
@@ -151,6 +181,7 @@ class WindowRecords:
         if len(m):
             self._estimates.append(Tracks3D(cur.start + t, cur.track_id[m], cur.xyz[m, t], cur.top_z[m, t],
                                             cur.bottom_z[m, t], cur.source[m, t], cur.n_views[m, t]))
+            self._windows.append(np.full(len(m), window_index, np.int64))
         tm, tc = np.nonzero(cur.members >= 0)
         if len(tm):
             k = cur.members[tm, tc]
@@ -166,9 +197,17 @@ class WindowRecords:
         if not self._estimates:
             return Tracks3D.empty()
         rows = _concat_estimates(self._estimates)
+        win = np.concatenate(self._windows) if len(self._windows) != 1 else self._windows[0]
         done = rows.frame <= upto
         self._estimates = [rows.select(~done)] if not done.all() else []
+        self._windows = [win[~done]] if not done.all() else []
         r = rows.select(done)
+        if self.superseded and self._members:
+            mem = MemberRows.concat(self._members)
+            gone = superseded(r.frame, r.track_id, win[done], mem.select(mem.frame <= upto))
+            if gone.any():
+                self.dropped += int(gone.sum())
+                r = r.select(~gone)
         return merge_overlaps(r.frame, r.track_id, r.xyz, r.top_z, r.bottom_z, r.source, r.n_views)
 
     def boxes(self, upto: int, n_cameras: int, n_tracks: int) -> tuple[np.ndarray, ...] | None:

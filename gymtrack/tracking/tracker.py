@@ -85,6 +85,8 @@ COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulate
           "plane_single_view_unlinked", "floor_tracklets", "segments_to_floor", "floor_ghosts",
           "segments_dropped_ghost", "plane_single_view_outside", "links_2d", "fused_plane", "fused_triangulated",
           "fused_to_plane_stage")
+#: cascade+: seconds a segment's end box is held (a walker moves ~0.3 m in that time)
+HOLD_SECONDS = float(__import__("os").environ.get("HOLD", "0.2"))
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
 
 
@@ -137,6 +139,9 @@ class Tracker:
         # cascade+: 2D tracks the IoU tracker broke, joined by 3D motion (.motion_link)
         self.motion = (MotionLinker(self.P, p.step, p.window, p.max_age, p.max_speed, self.counts)
                        if self.plus and association == "iou" else None)
+        # frames a segment's first/last box is held (windows): the paper's max_age; cascade+ holds a
+        # box only while a walking person stays near it (HOLD_SECONDS), at 30 fps that is still max_age
+        self.hold = min(p.max_age, int(HOLD_SECONDS * scene.fps)) if self.plus else p.max_age
         self.target = TargetStage(rig, scene)
         # stream position
         self.first_frame: int | None = None
@@ -147,7 +152,7 @@ class Tracker:
         self._window_index = 0
         self._finished = False
         self.table = BoxTable(rig)  # the boxes of frames not yet final
-        self.records = WindowRecords()  # the windows' 3D points and member boxes until final
+        self.records = WindowRecords(superseded=self.plus)  # the windows' 3D points and member boxes until final
         self._out: list[TrackerOutput] = []
         self._nothing = TrackerOutput.empty(self.names)  # what most calls return
         # counters
@@ -292,7 +297,7 @@ class Tracker:
         if self.motion is not None:
             self.motion.step(start, t, self.iou, self.linker.prev_seen)
         segs, dropped = build_window(start, self.width, t["frame"], t["camera"], t["track2d"], t["ubox"], t["det"],
-                                     p.min_tracklet_boxes, p.max_age)
+                                     p.min_tracklet_boxes, self.hold)
         self.counts["windows"] += 1
         self.counts["segments"] += len(segs)
         self.counts["segments_dropped_short"] += dropped
