@@ -8,8 +8,10 @@
   frame (:func:`~.linking.merge_overlaps`) and every detection goes to the track of the latest
   window that used it. Beyond the paper (``cascade+``, issue 12, ``superseded=True``): a
   window's estimate of a frame whose detections there all went to *other* tracks of later
-  windows is dropped before Eq. 12 (:func:`superseded`): the later window re-assigned that
-  person's boxes, so the earlier estimate would duplicate them.
+  windows is *superseded* (:func:`superseded`): the later window re-assigned that person's
+  boxes, so a point with nothing but such estimates duplicates another track's
+  (:meth:`WindowRecords.tracks_superseded` flags it; the tracker leaves it out of the reported
+  tracks, :mod:`.exclusion`).
 """
 
 from __future__ import annotations
@@ -167,7 +169,7 @@ class WindowRecords:
 
     def __init__(self, superseded: bool = False):
         self.superseded = bool(superseded)  # cascade+: drop the estimates whose boxes later windows took
-        self.dropped = 0  # estimates dropped that way
+        self.dropped = 0  # points flagged that way
         self._estimates: list[Tracks3D] = []
         self._windows: list[np.ndarray] = []  # the window index of every estimate (parallel to _estimates)
         self._members: list[MemberRows] = []
@@ -194,21 +196,29 @@ class WindowRecords:
     def tracks(self, upto: int) -> Tracks3D:
         """Eq. 12: every (frame, track) estimate from the windows covering the frame, averaged,
         for the frames up to ``upto`` (then forgotten)."""
+        return self.tracks_superseded(upto)[0]
+
+    def tracks_superseded(self, upto: int) -> tuple[Tracks3D, np.ndarray]:
+        """:meth:`tracks` and (N,) bool: the points whose every estimate is :func:`superseded`
+        (all False unless ``superseded``); the points themselves are Eq. 12's, unchanged."""
         if not self._estimates:
-            return Tracks3D.empty()
+            return Tracks3D.empty(), np.zeros(0, bool)
         rows = _concat_estimates(self._estimates)
         win = np.concatenate(self._windows) if len(self._windows) != 1 else self._windows[0]
         done = rows.frame <= upto
         self._estimates = [rows.select(~done)] if not done.all() else []
         self._windows = [win[~done]] if not done.all() else []
         r = rows.select(done)
-        if self.superseded and self._members:
+        out = merge_overlaps(r.frame, r.track_id, r.xyz, r.top_z, r.bottom_z, r.source, r.n_views)
+        gone = np.zeros(len(out), bool)
+        if self.superseded and self._members and len(out):
             mem = MemberRows.concat(self._members)
-            gone = superseded(r.frame, r.track_id, win[done], mem.select(mem.frame <= upto))
-            if gone.any():
+            est = superseded(r.frame, r.track_id, win[done], mem.select(mem.frame <= upto))
+            if est.any():  # a point is gone when none of its estimates kept a detection
+                span = int(out.track_id.max()) + 1
+                gone = ~np.isin(out.frame * span + out.track_id, r.frame[~est] * span + r.track_id[~est])
                 self.dropped += int(gone.sum())
-                r = r.select(~gone)
-        return merge_overlaps(r.frame, r.track_id, r.xyz, r.top_z, r.bottom_z, r.source, r.n_views)
+        return out, gone
 
     def boxes(self, upto: int, n_cameras: int, n_tracks: int) -> tuple[np.ndarray, ...] | None:
         """The tracks' detections of the frames up to ``upto`` (then forgotten): per detection the

@@ -41,15 +41,22 @@ from ..errors import InputError
 from .single_view import assign, corners, iou_corners
 
 #: body heights per second a box centre may move (about 2.5 m/s for a 1.7 m person: a brisk walk)
-SPEED = 1.5
+SPEED = 1.0
 #: body heights: the prediction error always tolerated (box jitter, posture changes)
-NOISE = 0.15
+NOISE = 0.1
 #: |log| of the box-height ratio a link may have
 SIZE_GATE = 0.3
 #: weight of the newest velocity measurement
 SMOOTHING = 0.5
-OVERLAP = True
-PRED_IOU = False
+
+
+def needs_motion(fps: float, speed: float = SPEED, noise: float = NOISE) -> bool:
+    """Whether a person may move farther between frames (``speed / fps`` body heights) than the
+    prediction noise: then overlap stops being a reliable cue and :class:`MotionIoUTracker` is
+    used; below (30 fps: 0.03 body heights a frame) the paper's IoU tracker is kept as it is."""
+    return speed / fps > noise
+
+
 COUNTS = ("links_2d_overlap", "links_2d_motion", "tracks_2d_started", "tracks_2d_lost")
 
 
@@ -129,14 +136,11 @@ class MotionIoUTracker:
         if T and N:
             same = self.camera[:, None] == camera[None, :]
             dt = (frame - self.last).astype(np.float64)
-            pred = self.box.copy()
-            if PRED_IOU:
-                pred[:, :2] += np.where(self.has_vel[:, None], self.vel, 0.0) * dt[:, None]
-            iou = iou_corners(corners(pred, self.camera), corners(box, camera))
+            iou = iou_corners(corners(self.box, self.camera), corners(box, camera))
             overlap = same & (iou >= self.iou_threshold)
             cost, inside = motion_costs(self.box, self.vel, self.has_vel, dt, box, self.speed_per_frame,
                                         self.noise, self.size_gate)
-            allowed = (overlap if OVERLAP else False) | (same & inside)
+            allowed = same & inside
             r, c = assign(1.0 / (1.0 + cost), allowed)  # the smallest summed offset from the predictions
             if len(r):
                 by_overlap = int(np.count_nonzero(overlap[r, c]))

@@ -65,13 +65,14 @@ from ._kernels import warm_up
 from ._kernels.single_view import frame_rows_check
 from .clustering import complete_linkage, tracklet_distances
 from .floor import drop_floor_ghosts, floor_split, solo_inside
+from .exclusion import suppress_duplicates
 from .fusion import PlaneRayFusion
 from .linking import WindowLinker
 from .motion_link import COUNTS as MOTION_COUNTS, MotionLinker
 from .plane_fallback import plane_stage
 from .reconstruct import cluster_members, opposite_clusters, outliers, triangulate_clusters
 from .single_view import IoUTracker
-from .single_view_motion import COUNTS as VIEW_COUNTS, MotionIoUTracker
+from .single_view_motion import COUNTS as VIEW_COUNTS, MotionIoUTracker, needs_motion
 from .target import TargetStage
 from .types import TrackerOutput, Tracks3D, WindowTracklets, WindowTracklets3D
 from .records import BoxTable, WindowRecords
@@ -87,6 +88,8 @@ COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulate
           "fused_to_plane_stage")
 #: cascade+: seconds a segment's end box is held (a walker moves ~0.3 m in that time)
 HOLD_SECONDS = float(__import__("os").environ.get("HOLD", "0.2"))
+#: cascade+'s own counters (the per-view motion tracker's, the motion link's, the exclusion's)
+PLUS_COUNTS = MOTION_COUNTS + VIEW_COUNTS + ("points_suppressed",)
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
 
 
@@ -132,7 +135,8 @@ class Tracker:
         self.counts: dict = defaultdict(int)
         # cascade+: the per-view tracker also links by predicted image motion (.single_view_motion)
         self.iou = (MotionIoUTracker(scene.fps, p.iou_threshold, p.max_age, counts=self.counts)
-                    if self.plus and association == "iou" else IoUTracker(p.iou_threshold, p.max_age))
+                    if self.plus and association == "iou" and needs_motion(scene.fps)
+                    else IoUTracker(p.iou_threshold, p.max_age))
         self.linker = WindowLinker(p.step, p.link_3d, p.relink_frames, p.max_speed, self.counts, by_2d=self.plus)
         self.fusion = (PlaneRayFusion(rig, scene, self.plane_arrays, self.opposite, self.counts)
                        if self.plus and p.fuse_plane else None)
@@ -220,11 +224,13 @@ class Tracker:
             "target_frames": int(self.target.frames),
             "target_switches": int(self.target.switches),
             "target_identifications": int(self.target.identifications),
-            **{k: int(self.counts[k]) for k in COUNTS + ((MOTION_COUNTS + VIEW_COUNTS) if self.motion is not None else ())},
+            **{k: int(self.counts[k]) for k in COUNTS + (PLUS_COUNTS if self.motion is not None else ())},
             "seconds": {k: round(v, 6) for k, v in self.timings.items()},
             "seconds_total": round(total, 6),
             "fps": round(frames / total, 1) if total > 0 else None,
         }
+        if self.plus:
+            s["estimates_superseded"] = int(self.records.dropped)
         if self.association == "oracle":
             s["detections_dropped_false_positive"] = {n: int(v) for n, v in zip(names, self.false_positives)}
             s["detections_dropped_duplicate"] = int(self.counts["duplicates"])
@@ -407,11 +413,17 @@ class Tracker:
         if upto <= self.final_frame:
             return
         t0 = time.perf_counter()
-        tracks = self.records.tracks(upto)
-        boxes = self._final_boxes(upto)
+        tracks, gone = self.records.tracks_superseded(upto)
+        boxes = all_boxes = self._final_boxes(upto)
+        all_tracks = tracks
+        if self.plus:  # beyond the paper: the reported tracks without duplicates (.exclusion)
+            tracks, boxes = suppress_duplicates(tracks, boxes, self.counts, gone)
+        self.used += np.bincount(boxes.camera, minlength=self.n_cameras)
         t1 = time.perf_counter()
         self.timings["finalise"] += t1 - t0
-        target = self.target.update(self.final_frame + 1, upto, tracks, boxes, self.linker.ended)
+        # the target stage (Eq. 13-14) picks one track and keeps every point: a duplicate cannot
+        # mislead it, and a suppressed point may be the gymnast's own (a spotter within reach)
+        target = self.target.update(self.final_frame + 1, upto, all_tracks, all_boxes, self.linker.ended)
         self.final_frame = upto
         self._out.append(TrackerOutput(tracks, boxes, *target))
         self.timings["target"] += time.perf_counter() - t1
@@ -423,7 +435,6 @@ class Tracker:
             return Detections.empty(self.names)
         det, frame, cam, tid = rows
         raw, score = self.table.lookup(det)
-        self.used += np.bincount(cam, minlength=self.n_cameras)
         return Detections.from_arrays(frame, cam, raw, self.names, score=score, track_id=tid)
 
     def _collect(self) -> TrackerOutput:

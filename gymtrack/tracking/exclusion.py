@@ -1,0 +1,75 @@
+"""Beyond the paper (issue 12; ``cascade+``): two tracks cannot be one body -- duplicates suppressed.
+
+A person is sometimes carried by two 3D tracks at once: a cross-window link (Eq. 10-11) failed and
+the old track's last window overlaps the new one's first, or a wrong cross-view pair (Eq. 1-2)
+triangulates next to a person someone else already tracks. Two bodies cannot be closer than
+about a shoulder width, so when Eq. 12 makes a frame final, a track point closer than
+``min_separation`` metres (3D distance: a gymnast in the air above a coach stays apart) to a
+point of an *older* track (a smaller track id: ids are given in order of the windows that
+start the tracks, and a re-linked track keeps its old id) is dropped, with that track's boxes
+of the frame. The older track keeps the person: it has the longer history (Eq. 13's target
+decisions and the identities already reported rest on it).
+
+What it trades: two real people closer than ``min_separation`` (a tight crowd, a spotter
+catching a gymnast) lose the younger one's point for those frames; a larger value removes more
+duplicates and more such neighbours. Counted as ``points_suppressed``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..detections import Detections
+from ..errors import InputError
+from .types import Tracks3D
+
+#: metres between two body centres below which they are one person (about a shoulder width)
+MIN_SEPARATION = 0.5
+
+
+def too_close(frame: np.ndarray, track_id: np.ndarray, xyz: np.ndarray, min_separation: float = MIN_SEPARATION
+              ) -> np.ndarray:
+    """(N,) bool: the points (frame (N,), track_id (N,), xyz (N, 3)) closer than ``min_separation``
+    to a point of an older track (smaller id) in the same frame. NaN points are never close."""
+    if not min_separation > 0:
+        raise InputError(f"min_separation must be a positive number of metres, got {min_separation!r}",
+                         field="min_separation")
+    n = len(frame)
+    out = np.zeros(n, bool)
+    if n < 2:
+        return out
+    order = np.argsort(frame, kind="stable")
+    f = frame[order]
+    start = np.flatnonzero(np.r_[True, f[1:] != f[:-1]])
+    size = np.diff(np.r_[start, n])
+    # every ordered pair (p, q) of rows of one frame, p and q counted from the frame's first row
+    sq = size * size
+    g = np.repeat(np.arange(len(start)), sq)
+    k = np.arange(int(sq.sum())) - np.repeat(np.cumsum(sq) - sq, sq)
+    a, b = order[start[g] + k // size[g]], order[start[g] + k % size[g]]
+    older = track_id[b] < track_id[a]
+    with np.errstate(invalid="ignore"):
+        close = np.linalg.norm(xyz[a] - xyz[b], axis=1) < min_separation
+    np.logical_or.at(out, a[older & close], True)
+    return out
+
+
+def suppress_duplicates(tracks: Tracks3D, boxes: Detections, counts: dict, gone: np.ndarray | None = None,
+                        min_separation: float = MIN_SEPARATION) -> tuple[Tracks3D, Detections]:
+    """The final points (and their boxes) without ``gone`` (N,) bool (points already known to be
+    duplicates: :meth:`.records.WindowRecords.tracks_superseded`) and without those of the rest
+    :func:`too_close` says duplicate an older track; the latter counted in
+    ``counts["points_suppressed"]``."""
+    drop = np.zeros(len(tracks), bool) if gone is None else gone.copy()
+    rest = np.flatnonzero(~drop)
+    close = too_close(tracks.frame[rest], tracks.track_id[rest], tracks.xyz[rest], min_separation)
+    drop[rest[close]] = True
+    counts["points_suppressed"] += int(close.sum())
+    if not drop.any():
+        return tracks, boxes
+    if len(boxes):
+        span = int(max(tracks.track_id.max(), boxes.track_id.max())) + 1
+        gone = np.isin(boxes.frame * span + boxes.track_id, tracks.frame[drop] * span + tracks.track_id[drop])
+        if gone.any():
+            boxes = boxes.select(~gone)
+    return tracks.select(~drop), boxes
