@@ -34,7 +34,9 @@ Modes (the paper's ablation, Table 4): ``cascade`` (the method), ``triangulation
 fallback; single-tracklet clusters are dropped and opposite pairs triangulated -- close to
 UniMMT), ``plane`` (every segment goes to the plane stage); beyond the paper, ``cascade+``: the
 cascade with the floor hypothesis (:mod:`.floor`), a view's 2D tracks the IoU tracker broke joined
-by 3D motion (:mod:`.motion_link`), and with ``params.fuse_plane`` two-view clusters
+by 3D motion (:mod:`.motion_link`), at low frame rates a per-view tracker predicting image motion
+(:mod:`.single_view_motion`) and end boxes held only ``HOLD_SECONDS``, duplicates left out of the
+reported tracks (:mod:`.exclusion`), and with ``params.fuse_plane`` two-view clusters
 fused with the plane by their uncertainty (:mod:`.fusion`, experimental). ``association="oracle"``
 replaces the IoU tracker and Algorithm 1 by ground-truth ids carried in ``Detections.track_id``
 (>= 0; -1 = a false positive, dropped and counted): the limit better association could reach. The
@@ -86,8 +88,9 @@ COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulate
           "plane_single_view_unlinked", "floor_tracklets", "segments_to_floor", "floor_ghosts",
           "segments_dropped_ghost", "plane_single_view_outside", "links_2d", "fused_plane", "fused_triangulated",
           "fused_to_plane_stage")
-#: cascade+: seconds a segment's end box is held (a walker moves ~0.3 m in that time)
-HOLD_SECONDS = float(__import__("os").environ.get("HOLD", "0.2"))
+#: cascade+: seconds a segment's end box is held beyond its last observation (windows); a walker
+#: moves ~0.3 m in that time, so at 2 fps no box is held (held boxes there were 1.4 m stale ghosts)
+HOLD_SECONDS = 0.2
 #: cascade+'s own counters (the per-view motion tracker's, the motion link's, the exclusion's)
 PLUS_COUNTS = MOTION_COUNTS + VIEW_COUNTS + ("points_suppressed",)
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
@@ -143,8 +146,7 @@ class Tracker:
         # cascade+: 2D tracks the IoU tracker broke, joined by 3D motion (.motion_link)
         self.motion = (MotionLinker(self.P, p.step, p.window, p.max_age, p.max_speed, self.counts)
                        if self.plus and association == "iou" else None)
-        # frames a segment's first/last box is held (windows): the paper's max_age; cascade+ holds a
-        # box only while a walking person stays near it (HOLD_SECONDS), at 30 fps that is still max_age
+        # frames a segment's end box is held (windows): max_age; cascade+: HOLD_SECONDS (30 fps: max_age)
         self.hold = min(p.max_age, int(HOLD_SECONDS * scene.fps)) if self.plus else p.max_age
         self.target = TargetStage(rig, scene)
         # stream position
@@ -230,7 +232,7 @@ class Tracker:
             "fps": round(frames / total, 1) if total > 0 else None,
         }
         if self.plus:
-            s["estimates_superseded"] = int(self.records.dropped)
+            s["points_superseded"] = int(self.records.dropped)
         if self.association == "oracle":
             s["detections_dropped_false_positive"] = {n: int(v) for n, v in zip(names, self.false_positives)}
             s["detections_dropped_duplicate"] = int(self.counts["duplicates"])
@@ -415,14 +417,12 @@ class Tracker:
         t0 = time.perf_counter()
         tracks, gone = self.records.tracks_superseded(upto)
         boxes = all_boxes = self._final_boxes(upto)
-        all_tracks = tracks
+        all_tracks = tracks  # the target stage (Eq. 13-14) keeps every point: see .exclusion
         if self.plus:  # beyond the paper: the reported tracks without duplicates (.exclusion)
             tracks, boxes = suppress_duplicates(tracks, boxes, self.counts, gone)
         self.used += np.bincount(boxes.camera, minlength=self.n_cameras)
         t1 = time.perf_counter()
         self.timings["finalise"] += t1 - t0
-        # the target stage (Eq. 13-14) picks one track and keeps every point: a duplicate cannot
-        # mislead it, and a suppressed point may be the gymnast's own (a spotter within reach)
         target = self.target.update(self.final_frame + 1, upto, all_tracks, all_boxes, self.linker.ended)
         self.final_frame = upto
         self._out.append(TrackerOutput(tracks, boxes, *target))
