@@ -34,6 +34,7 @@ from .types import Tracks3D
 
 #: metres between two body centres below which they are one person (about a shoulder width)
 MIN_SEPARATION = 0.5
+DENSE = 400  #: up to this many points all pairs are compared in one (n, n) matrix
 
 
 def too_close(frame: np.ndarray, track_id: np.ndarray, xyz: np.ndarray, min_separation: float = MIN_SEPARATION
@@ -47,19 +48,18 @@ def too_close(frame: np.ndarray, track_id: np.ndarray, xyz: np.ndarray, min_sepa
     out = np.zeros(n, bool)
     if n < 2:
         return out
-    order = np.argsort(frame, kind="stable")
-    f = frame[order]
-    start = np.flatnonzero(np.r_[True, f[1:] != f[:-1]])
-    size = np.diff(np.r_[start, n])
-    # every ordered pair (p, q) of rows of one frame, p and q counted from the frame's first row
-    sq = size * size
-    g = np.repeat(np.arange(len(start)), sq)
-    k = np.arange(int(sq.sum())) - np.repeat(np.cumsum(sq) - sq, sq)
-    a, b = order[start[g] + k // size[g]], order[start[g] + k % size[g]]
-    older = track_id[b] < track_id[a]
-    with np.errstate(invalid="ignore"):
-        close = np.linalg.norm(xyz[a] - xyz[b], axis=1) < min_separation
-    np.logical_or.at(out, a[older & close], True)
+    if n <= DENSE:  # every pair at once: a few numpy calls (the usual case, a few frames of people)
+        d2 = np.zeros((n, n))
+        for k in range(xyz.shape[1]):
+            diff = xyz[:, k][:, None] - xyz[:, k][None, :]
+            d2 += diff * diff
+        with np.errstate(invalid="ignore"):
+            hit = (d2 < min_separation * min_separation) & (frame[:, None] == frame[None, :])
+        hit &= track_id[None, :] < track_id[:, None]
+        return hit.any(axis=1)
+    for f in np.unique(frame):  # a long stretch (the end of a stream): frame by frame
+        at = np.flatnonzero(frame == f)
+        out[at] = too_close(frame[at], track_id[at], xyz[at], min_separation)
     return out
 
 

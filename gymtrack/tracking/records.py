@@ -147,9 +147,12 @@ def superseded(frame: np.ndarray, track_id: np.ndarray, window: np.ndarray, memb
     d = det[order]
     first = np.ones(len(d), bool)
     np.not_equal(d[1:], d[:-1], out=first[1:])
-    winner = np.repeat(tid[order][first], np.diff(np.append(np.flatnonzero(first), len(d))))
+    t = tid[order]
+    if not np.any(~first[1:] & (t[1:] != t[:-1])):  # no detection changed track: nothing superseded
+        return np.zeros(len(frame), bool)
+    winner = np.repeat(t[first], np.diff(np.append(np.flatnonzero(first), len(d))))
     kept = np.empty(len(det), bool)
-    kept[order] = winner == tid[order]
+    kept[order] = winner == t
     # per (frame, track, window) of the members: does any member detection still belong to it?
     span = int(max(window.max(), win.max())) + 1
     tspan = int(max(track_id.max(), tid.max())) + 1
@@ -213,6 +216,7 @@ class WindowRecords:
         gone = np.zeros(len(out), bool)
         if self.superseded and self._members and len(out):
             mem = MemberRows.concat(self._members)
+            self._members = [mem]  # (boxes() would concatenate them again)
             est = superseded(r.frame, r.track_id, win[done], mem.select(mem.frame <= upto))
             if est.any():  # a point is gone when none of its estimates kept a detection
                 span = int(out.track_id.max()) + 1
