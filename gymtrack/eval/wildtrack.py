@@ -15,7 +15,9 @@ Set-up (and why):
 * **Frames**: annotated every 5th video frame (2 fps); they are renumbered 0, 1, 2, ... so the
   per-view IoU tracker sees consecutive frames. At 2 fps a walker moves ~0.7 m between frames,
   often more than their own width, so the IoU tracker fragments tracks that a 30 fps video would
-  keep: a handicap of this data, not of the method.
+  keep: a handicap of this data, not of the method. The scene says ``fps: 2`` because it is true;
+  ``cascade+`` uses it to switch its per-view tracker to one predicting image motion
+  (:mod:`gymtrack.tracking.single_view_motion`) and to hold no end box in windows.
 * **Scene**: the "plane" of the cascade is the horizontal plane at hip height (``plane_z`` =
   0.9 m, normal (0, 0, 1)): a ray through a pedestrian's box centre meets it near their hips.
   The performance space covers the annotated ground area (x -3..9 m, y -9..26 m) up to 2.5 m.
@@ -195,7 +197,8 @@ def wildtrack_markdown(res: dict) -> str:
         "",
         "Why these numbers are modest: (1) at 2 fps a walker often moves more than their own width between frames, so "
         "the per-view IoU tracker (threshold 0.1) cuts 2D tracks; cut tracks give ID switches, and two fragments of one "
-        "view cannot share a cluster, so a person can get two 3D tracks (duplicates). (2) The association uses box centres "
+        "view cannot share a cluster, so a person can get two 3D tracks (duplicates); cascade+ links a view's boxes by "
+        "predicted image motion at this frame rate and leaves duplicates of older tracks out of its output. (2) The association uses box centres "
         "only (Eq. 1) in a crowd of ~24 people seen by 7 views, where many wrong cross-view pairs lie close to each other's "
         "epipolar lines and triangulate to ghosts inside the area. (3) The plane mode trusts the hip-height plane and only "
         "keeps candidates matched by at least two views on it: expect fewer ghosts and switches but more misses, and a larger "
