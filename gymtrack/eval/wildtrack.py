@@ -49,6 +49,9 @@ __all__ = ["WildtrackSetup", "noisy_detections", "wildtrack_scene", "run_wildtra
 #: The dataset's default place, relative to the current directory (the benchmark's configuration).
 DEFAULT_PATH = DEFAULT_CONFIG.wildtrack
 FRAME_STEP = 5  # annotated every 5th video frame
+#: the tracker's counters reported per mode where it has them (cascade+)
+LINK_COUNTS = ("links_2d_overlap", "links_2d_motion", "tracks_2d_started", "links_3d_motion", "new_2d_tracks_unlinked",
+               "points_superseded", "points_suppressed")
 
 
 @dataclass(frozen=True)
@@ -156,6 +159,8 @@ def run_wildtrack(path: str | Path = DEFAULT_PATH, setup: WildtrackSetup = Wildt
             "fp_duplicates": max(near - m.matches, 0), "fp_ghosts": int(len(tr) - near),
             "mean_height": float(np.nanmean(tr.xyz[:, 2])) if len(tr) else float("nan"),
             "seconds": sec, "fps": float(res.summary.get("frames", 0) / sec) if sec > 0 else float("nan"),
+            # cascade+: what the per-view tracker linked and could not link, what was left out as duplicates
+            **{k: int(res.summary[k]) for k in LINK_COUNTS if k in res.summary},
         }
         if log:
             log(f"WILDTRACK {mode}: MOTA {m.mota:.3f} IDF1 {m.idf1:.3f} median error {m.median_distance:.3f} m ({sec:.1f} s)")
@@ -190,6 +195,13 @@ def wildtrack_markdown(res: dict) -> str:
                      fmt(r["fps"], "fps")])
     lines.append(markdown_table(["mode", "MOTA", "IDF1", "ID sw.", "FP", "of which duplicates", "of which ghosts", "FN",
                                  "median err. (m)", "mean err. (m)", "tracks", "mean z (m)", "frames/s"], body))
+    for mode, r in res["modes"].items():
+        if "links_2d_motion" in r:
+            lines += ["", f"{mode}: the per-view tracker made {r['links_2d_motion']} links by predicted motion whose boxes do "
+                      f"not overlap (the IoU tracker could not make them; {r['links_2d_overlap']} more that overlap) and started "
+                      f"{r['tracks_2d_started']} 2D tracks; {r['links_3d_motion']} new 2D tracks continued a 3D track by its "
+                      f"projected motion, {r['new_2d_tracks_unlinked']} could not be linked; {r['points_superseded']} points "
+                      f"superseded by a later window and {r['points_suppressed']} within 0.5 m of an older track left out."]
     lines += [
         "",
         "FP duplicates: outputs within the gate of a person someone else already matched (a person tracked twice); "
