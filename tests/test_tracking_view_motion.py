@@ -72,6 +72,7 @@ def test_lost_tracks_are_counted_and_views_never_mix():
     assert a[0] != a[1]  # the same pixels in two views are two tracks
     b = t.update(1, np.array([1]), np.array([[110.0, 100, 40, 100]]))
     assert b[0] == a[1]
+    assert len(t.update(2, np.zeros(0, np.int64), np.zeros((0, 4)))) == 0  # a frame without boxes
     t.update(4, np.array([0]), np.array([[100.0, 100, 40, 100]]))  # view 0's track aged out (gap 3 > max_age + 1)
     assert t.counts["tracks_2d_lost"] == 2 and t.counts["tracks_2d_started"] == 3 and len(t) == 1
 
