@@ -6,7 +6,12 @@
 * :class:`WindowRecords` -- every window's linked 3D points and the detections of their member
   segments. When frames become final, Eq. 12 averages the estimates of the windows covering a
   frame (:func:`~.linking.merge_overlaps`) and every detection goes to the track of the latest
-  window that used it.
+  window that used it. Beyond the paper (``cascade+``, issue 12, ``superseded=True``): a
+  window's estimate of a frame whose detections there all went to *other* tracks of later
+  windows is *superseded* (:func:`superseded`): the later window re-assigned that person's
+  boxes, so a point with nothing but such estimates duplicates another track's
+  (:meth:`WindowRecords.tracks_superseded` flags it; the tracker leaves it out of the reported
+  tracks, :mod:`.exclusion`).
 """
 
 from __future__ import annotations
@@ -130,6 +135,33 @@ def _concat_estimates(parts: list[Tracks3D]) -> Tracks3D:
     return parts[0] if len(parts) == 1 else Tracks3D.concat(parts)
 
 
+def superseded(frame: np.ndarray, track_id: np.ndarray, window: np.ndarray, members: MemberRows) -> np.ndarray:
+    """(n,) bool: estimates (frame, track_id, window) (n,) that had member detections in their
+    frame and lost all of them to another track (each detection goes to the latest window's
+    track, as in :meth:`WindowRecords.boxes`). Estimates without detections in their frame
+    (interpolated or held boxes) are never superseded."""
+    det, win, tid = members.det, members.window, members.track_id
+    if not len(det) or not len(frame):
+        return np.zeros(len(frame), bool)
+    order = np.lexsort((-win, det))  # per detection, the latest window first
+    d = det[order]
+    first = np.ones(len(d), bool)
+    np.not_equal(d[1:], d[:-1], out=first[1:])
+    t = tid[order]
+    if not np.any(~first[1:] & (t[1:] != t[:-1])):  # no detection changed track: nothing superseded
+        return np.zeros(len(frame), bool)
+    winner = np.repeat(t[first], np.diff(np.append(np.flatnonzero(first), len(d))))
+    kept = np.empty(len(det), bool)
+    kept[order] = winner == t
+    # per (frame, track, window) of the members: does any member detection still belong to it?
+    span = int(max(window.max(), win.max())) + 1
+    tspan = int(max(track_id.max(), tid.max())) + 1
+    key_m = (members.frame * tspan + tid) * span + win
+    key_e = (frame * tspan + track_id) * span + window
+    has = np.isin(key_e, key_m)
+    return has & ~np.isin(key_e, key_m[kept])
+
+
 class WindowRecords:
     """The windows' linked 3D points and member detections until their frames are final.
 
@@ -138,8 +170,11 @@ class WindowRecords:
     :class:`MemberRows`.
     """
 
-    def __init__(self):
+    def __init__(self, superseded: bool = False):
+        self.superseded = bool(superseded)  # cascade+: drop the estimates whose boxes later windows took
+        self.dropped = 0  # points flagged that way
         self._estimates: list[Tracks3D] = []
+        self._windows: list[np.ndarray] = []  # the window index of every estimate (parallel to _estimates)
         self._members: list[MemberRows] = []
 
     def __len__(self) -> int:
@@ -151,6 +186,7 @@ class WindowRecords:
         if len(m):
             self._estimates.append(Tracks3D(cur.start + t, cur.track_id[m], cur.xyz[m, t], cur.top_z[m, t],
                                             cur.bottom_z[m, t], cur.source[m, t], cur.n_views[m, t]))
+            self._windows.append(np.full(len(m), window_index, np.int64))
         tm, tc = np.nonzero(cur.members >= 0)
         if len(tm):
             k = cur.members[tm, tc]
@@ -163,13 +199,30 @@ class WindowRecords:
     def tracks(self, upto: int) -> Tracks3D:
         """Eq. 12: every (frame, track) estimate from the windows covering the frame, averaged,
         for the frames up to ``upto`` (then forgotten)."""
+        return self.tracks_superseded(upto)[0]
+
+    def tracks_superseded(self, upto: int) -> tuple[Tracks3D, np.ndarray]:
+        """:meth:`tracks` and (N,) bool: the points whose every estimate is :func:`superseded`
+        (all False unless ``superseded``); the points themselves are Eq. 12's, unchanged."""
         if not self._estimates:
-            return Tracks3D.empty()
+            return Tracks3D.empty(), np.zeros(0, bool)
         rows = _concat_estimates(self._estimates)
+        win = np.concatenate(self._windows) if len(self._windows) != 1 else self._windows[0]
         done = rows.frame <= upto
         self._estimates = [rows.select(~done)] if not done.all() else []
+        self._windows = [win[~done]] if not done.all() else []
         r = rows.select(done)
-        return merge_overlaps(r.frame, r.track_id, r.xyz, r.top_z, r.bottom_z, r.source, r.n_views)
+        out = merge_overlaps(r.frame, r.track_id, r.xyz, r.top_z, r.bottom_z, r.source, r.n_views)
+        gone = np.zeros(len(out), bool)
+        if self.superseded and self._members and len(out):
+            mem = MemberRows.concat(self._members)
+            self._members = [mem]  # (boxes() would concatenate them again)
+            est = superseded(r.frame, r.track_id, win[done], mem.select(mem.frame <= upto))
+            if est.any():  # a point is gone when none of its estimates kept a detection
+                span = int(out.track_id.max()) + 1
+                gone = ~np.isin(out.frame * span + out.track_id, r.frame[~est] * span + r.track_id[~est])
+                self.dropped += int(gone.sum())
+        return out, gone
 
     def boxes(self, upto: int, n_cameras: int, n_tracks: int) -> tuple[np.ndarray, ...] | None:
         """The tracks' detections of the frames up to ``upto`` (then forgotten): per detection the

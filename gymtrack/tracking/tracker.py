@@ -34,7 +34,9 @@ Modes (the paper's ablation, Table 4): ``cascade`` (the method), ``triangulation
 fallback; single-tracklet clusters are dropped and opposite pairs triangulated -- close to
 UniMMT), ``plane`` (every segment goes to the plane stage); beyond the paper, ``cascade+``: the
 cascade with the floor hypothesis (:mod:`.floor`), a view's 2D tracks the IoU tracker broke joined
-by 3D motion (:mod:`.motion_link`), and with ``params.fuse_plane`` two-view clusters
+by 3D motion (:mod:`.motion_link`), at low frame rates a per-view tracker predicting image motion
+(:mod:`.single_view_motion`) and end boxes held only ``HOLD_SECONDS``, duplicates left out of the
+reported tracks (:mod:`.exclusion`), and with ``params.fuse_plane`` two-view clusters
 fused with the plane by their uncertainty (:mod:`.fusion`: non-opposite pairs instead of Eq. 3,
 the plane stage's two-view tracklets instead of Eq. 9). ``association="oracle"``
 replaces the IoU tracker and Algorithm 1 by ground-truth ids carried in ``Detections.track_id``
@@ -66,12 +68,14 @@ from ._kernels import warm_up
 from ._kernels.single_view import frame_rows_check
 from .clustering import complete_linkage, tracklet_distances
 from .floor import drop_floor_ghosts, floor_split, solo_inside
+from .exclusion import suppress_duplicates
 from .fusion import COUNTS as FUSION_COUNTS, PlaneRayFusion
 from .linking import WindowLinker
 from .motion_link import COUNTS as MOTION_COUNTS, MotionLinker
 from .plane_fallback import plane_stage
 from .reconstruct import cluster_members, opposite_clusters, outliers, triangulate_clusters
 from .single_view import IoUTracker
+from .single_view_motion import COUNTS as VIEW_COUNTS, MotionIoUTracker, needs_motion
 from .target import TargetStage
 from .types import TrackerOutput, Tracks3D, WindowTracklets, WindowTracklets3D
 from .records import BoxTable, WindowRecords
@@ -85,6 +89,11 @@ COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulate
           "plane_single_view_unlinked", "floor_tracklets", "segments_to_floor", "floor_ghosts",
           "segments_dropped_ghost", "plane_single_view_outside", "links_2d", "fused_plane", "fused_triangulated",
           "fused_to_plane_stage")
+#: cascade+: seconds a segment's end box is held beyond its last observation (windows); a walker
+#: moves ~0.3 m in that time, so at 2 fps no box is held (held boxes there were 1.4 m stale ghosts)
+HOLD_SECONDS = 0.2
+#: cascade+'s own counters (the per-view motion tracker's, the motion link's, the exclusion's)
+PLUS_COUNTS = MOTION_COUNTS + VIEW_COUNTS + ("points_suppressed",)
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
 
 
@@ -127,14 +136,19 @@ class Tracker:
         # (C, C) opposite camera pairs, judged at the scene's focus, the apparatus (see reconstruct)
         self.opposite = opposite_pairs(rig, scene.focus_point, p.opposite_angle_deg)
         warm_up()  # numba's compile / cache load of every kernel: once per process, never tracking time
-        self.iou = IoUTracker(p.iou_threshold, p.max_age)
         self.counts: dict = defaultdict(int)
+        # cascade+: the per-view tracker also links by predicted image motion (.single_view_motion)
+        self.iou = (MotionIoUTracker(scene.fps, p.iou_threshold, p.max_age, counts=self.counts)
+                    if self.plus and association == "iou" and needs_motion(scene.fps)
+                    else IoUTracker(p.iou_threshold, p.max_age))
         self.linker = WindowLinker(p.step, p.link_3d, p.relink_frames, p.max_speed, self.counts, by_2d=self.plus)
         self.fusion = (PlaneRayFusion(rig, scene, self.plane_arrays, self.opposite, self.counts)
                        if self.plus and p.fuse_plane else None)
         # cascade+: 2D tracks the IoU tracker broke, joined by 3D motion (.motion_link)
         self.motion = (MotionLinker(self.P, p.step, p.window, p.max_age, p.max_speed, self.counts)
                        if self.plus and association == "iou" else None)
+        # frames a segment's end box is held (windows): max_age; cascade+: HOLD_SECONDS (30 fps: max_age)
+        self.hold = min(p.max_age, int(HOLD_SECONDS * scene.fps)) if self.plus else p.max_age
         self.target = TargetStage(rig, scene)
         # stream position
         self.first_frame: int | None = None
@@ -145,7 +159,7 @@ class Tracker:
         self._window_index = 0
         self._finished = False
         self.table = BoxTable(rig)  # the boxes of frames not yet final
-        self.records = WindowRecords()  # the windows' 3D points and member boxes until final
+        self.records = WindowRecords(superseded=self.plus)  # the windows' 3D points and member boxes until final
         self._out: list[TrackerOutput] = []
         self._nothing = TrackerOutput.empty(self.names)  # what most calls return
         # counters
@@ -213,12 +227,14 @@ class Tracker:
             "target_frames": int(self.target.frames),
             "target_switches": int(self.target.switches),
             "target_identifications": int(self.target.identifications),
-            **{k: int(self.counts[k]) for k in COUNTS + (MOTION_COUNTS if self.motion is not None else ())
+            **{k: int(self.counts[k]) for k in COUNTS + (PLUS_COUNTS if self.motion is not None else ())
                + (FUSION_COUNTS if self.fusion is not None else ())},
             "seconds": {k: round(v, 6) for k, v in self.timings.items()},
             "seconds_total": round(total, 6),
             "fps": round(frames / total, 1) if total > 0 else None,
         }
+        if self.plus:
+            s["points_superseded"] = int(self.records.dropped)
         if self.association == "oracle":
             s["detections_dropped_false_positive"] = {n: int(v) for n, v in zip(names, self.false_positives)}
             s["detections_dropped_duplicate"] = int(self.counts["duplicates"])
@@ -291,7 +307,7 @@ class Tracker:
         if self.motion is not None:
             self.motion.step(start, t, self.iou, self.linker.prev_seen)
         segs, dropped = build_window(start, self.width, t["frame"], t["camera"], t["track2d"], t["ubox"], t["det"],
-                                     p.min_tracklet_boxes, p.max_age)
+                                     p.min_tracklet_boxes, self.hold)
         self.counts["windows"] += 1
         self.counts["segments"] += len(segs)
         self.counts["segments_dropped_short"] += dropped
@@ -403,11 +419,15 @@ class Tracker:
         if upto <= self.final_frame:
             return
         t0 = time.perf_counter()
-        tracks = self.records.tracks(upto)
-        boxes = self._final_boxes(upto)
+        tracks, gone = self.records.tracks_superseded(upto)
+        boxes = all_boxes = self._final_boxes(upto)
+        all_tracks = tracks  # the target stage (Eq. 13-14) keeps every point: see .exclusion
+        if self.plus:  # beyond the paper: the reported tracks without duplicates (.exclusion)
+            tracks, boxes = suppress_duplicates(tracks, boxes, self.counts, gone)
+        self.used += np.bincount(boxes.camera, minlength=self.n_cameras)
         t1 = time.perf_counter()
         self.timings["finalise"] += t1 - t0
-        target = self.target.update(self.final_frame + 1, upto, tracks, boxes, self.linker.ended)
+        target = self.target.update(self.final_frame + 1, upto, all_tracks, all_boxes, self.linker.ended)
         self.final_frame = upto
         self._out.append(TrackerOutput(tracks, boxes, *target))
         self.timings["target"] += time.perf_counter() - t1
@@ -419,7 +439,6 @@ class Tracker:
             return Detections.empty(self.names)
         det, frame, cam, tid = rows
         raw, score = self.table.lookup(det)
-        self.used += np.bincount(cam, minlength=self.n_cameras)
         return Detections.from_arrays(frame, cam, raw, self.names, score=score, track_id=tid)
 
     def _collect(self) -> TrackerOutput:
