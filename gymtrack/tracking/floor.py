@@ -98,7 +98,7 @@ def floor_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | No
     after the outlier test (``members`` index ``segs``; None when none) and the segments left
     for the apparatus plane. ``floor_only``: segments that may go to the floor only (the ghosts'
     of :func:`drop_floor_ghosts`; dropped, and counted, when the floor does not take them)."""
-    from .reconstruct import outliers
+    from .reconstruct import outliers_by_place
 
     C = len(rig.K)
     n_plane = len(to_plane)
@@ -111,7 +111,7 @@ def floor_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | No
     fl, used = floor_stage(sub, rig, params.cluster_plane, space, apart, labels)
     counts["segments_to_floor"] += int(used.sum())
     if len(fl):
-        bad = outliers(fl.xyz, fl.valid, np.asarray(scene.tracking_space, dtype=np.float64), params.max_speed)
+        bad = outliers_by_place(fl.xyz, fl.valid, np.asarray(scene.tracking_space, dtype=np.float64), params.max_speed)
         if bad.any():  # Eq. 4, as for every 3D tracklet
             counts["tracklets_outliers"] += int(bad.sum())
             fl = fl.subset(~bad)

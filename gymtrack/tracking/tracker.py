@@ -69,7 +69,7 @@ from .fusion import PlaneRayFusion
 from .linking import WindowLinker
 from .motion_link import COUNTS as MOTION_COUNTS, MotionLinker
 from .plane_fallback import plane_stage
-from .reconstruct import cluster_members, opposite_clusters, outliers, triangulate_clusters
+from .reconstruct import cluster_members, opposite_clusters, outliers, outliers_by_place, triangulate_clusters
 from .single_view import IoUTracker
 from .target import TargetStage
 from .types import TrackerOutput, Tracks3D, WindowTracklets, WindowTracklets3D
@@ -113,6 +113,7 @@ class Tracker:
         self.rig, self.scene, self.mode, self.association = rig, scene, mode, association
         self.plus = mode == "cascade+"  # the beyond-the-paper additions (floor, ...) are gated on this
         self._floor_only = np.zeros(0, np.int64)  # cascade+: this window's segments of ghost clusters
+        self._outliers = outliers_by_place if self.plus else outliers  # Eq. 4 (cascade+: S_track by the mean)
         p = self.params = scene.params
         self.width, self.step = p.window, p.step
         self.n_cameras = len(rig)
@@ -329,7 +330,7 @@ class Tracker:
             self.counts["segments_dropped_single"] += int(np.count_nonzero(~multi))
         tri = triangulate_clusters(segs, members[multi], self.P)
         tri = tri if fused is None else WindowTracklets3D.concat([tri, fused])
-        bad = outliers(tri.xyz, tri.valid, self.space, p.max_speed)
+        bad = self._outliers(tri.xyz, tri.valid, self.space, p.max_speed)
         if bad.any():
             self.counts["tracklets_outliers"] += int(bad.sum())
             tri = tri.subset(~bad)
@@ -362,7 +363,7 @@ class Tracker:
         self.counts["segments_to_plane"] += len(to_plane)
         if not len(pl):
             return None, floor
-        bad = outliers(pl.xyz, pl.valid, self.space, p.max_speed)
+        bad = self._outliers(pl.xyz, pl.valid, self.space, p.max_speed)
         if bad.any():
             self.counts["tracklets_outliers"] += int(bad.sum())
             pl = pl.subset(~bad)
