@@ -189,7 +189,8 @@ class WindowLinker:
     window_step: frames between window starts; link_3d: the gate, metres; relink_frames: how
     long a lost track may be re-linked (0: the paper); max_speed: metres per frame, clips a lost
     track's velocity; counts: counter dict the links are counted in (``links``, ``relinks``,
-    ``plane_single_view``, ``plane_single_view_unlinked``).
+    ``plane_single_view``, ``plane_single_view_unlinked``: the one-view tracklets, of the plane
+    and, in ``cascade+``, of the floor, that continued a track or were dropped).
 
     Use: ``linked = linker.step(tracklets, track2d, solo)`` once per window, in order.
     State: the previous window's tracklets (M, W), and one entry per live, lost or ended track

@@ -81,7 +81,7 @@ ASSOCIATIONS = ("iou", "oracle")
 #: the per-window counters of :meth:`Tracker.summary` (what was used, made, dropped)
 COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulated", "segments_to_plane",
           "plane_tracklets", "segments_dropped_single", "tracklets_outliers", "links", "relinks", "plane_single_view",
-          "plane_single_view_unlinked", "floor_tracklets", "segments_to_floor", "floor_ghosts",
+          "plane_single_view_unlinked", "floor_tracklets", "floor_single_view", "segments_to_floor", "floor_ghosts",
           "segments_dropped_ghost", "plane_single_view_outside", "links_2d", "fused_plane", "fused_triangulated",
           "fused_to_plane_stage")
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
@@ -386,6 +386,12 @@ class Tracker:
             solo[len(cur) - len(plane):] = (plane.members >= 0).sum(axis=1) == 1
         floor_rows = np.zeros(len(cur), bool)  # cascade+: the floor tracklets, after the triangulated ones
         floor_rows[len(tri or ()):][:len(floor or ())] = True
+        if floor is not None:
+            # cascade+: one view alone does not confirm a person on the floor either (a clutter box's
+            # foot ray meets the floor too): a one-view floor tracklet may only continue a track
+            one = (floor.members >= 0).sum(axis=1) == 1
+            solo[floor_rows] = one
+            self.counts["floor_single_view"] += int(one.sum())
         cur = self.linker.step(cur, segs.track2d, solo, floor_rows)
         if self.motion is not None:
             self.motion.remember(cur, segs)
