@@ -81,9 +81,11 @@ ASSOCIATIONS = ("iou", "oracle")
 #: the per-window counters of :meth:`Tracker.summary` (what was used, made, dropped)
 COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulated", "segments_to_plane",
           "plane_tracklets", "segments_dropped_single", "tracklets_outliers", "links", "relinks", "plane_single_view",
-          "plane_single_view_unlinked", "floor_tracklets", "floor_single_view", "segments_to_floor", "floor_ghosts",
+          "plane_single_view_unlinked", "floor_tracklets", "segments_to_floor", "floor_ghosts",
           "segments_dropped_ghost", "plane_single_view_outside", "links_2d", "fused_plane", "fused_triangulated",
           "fused_to_plane_stage")
+#: cascade+ only (in its summary only, so the other modes' outputs stay as they were)
+PLUS_COUNTS = ("floor_single_view",)
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
 
 
@@ -213,7 +215,8 @@ class Tracker:
             "target_frames": int(self.target.frames),
             "target_switches": int(self.target.switches),
             "target_identifications": int(self.target.identifications),
-            **{k: int(self.counts[k]) for k in COUNTS + (MOTION_COUNTS if self.motion is not None else ())},
+            **{k: int(self.counts[k]) for k in COUNTS + (MOTION_COUNTS if self.motion is not None else ())
+               + (PLUS_COUNTS if self.plus else ())},
             "seconds": {k: round(v, 6) for k, v in self.timings.items()},
             "seconds_total": round(total, 6),
             "fps": round(frames / total, 1) if total > 0 else None,
