@@ -1,12 +1,14 @@
 """cascade+ against ground truth on small simulated scenes (issue 12): Eq. 4's tracking-space test
-on a tracklet's mean position (a person at the boundary of S_track is kept), and one view alone
-never starting a track on the floor (a clutter box) while it may continue one."""
+on a tracklet's mean position (a person at the boundary of S_track is kept), one view alone
+never starting a track on the floor (a clutter box) while it may continue one, and Eq. 12 keeping
+an over-determined triangulation rather than averaging it with a weaker estimate."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from conftest import as_raw, make_detections, ring_rig, simple_scene
+from gymtrack.tracking.linking import merge_overlaps
 from gymtrack.tracking.offline import track_detections
 from gymtrack.tracking.reconstruct import outliers, outliers_by_place
 
@@ -63,3 +65,21 @@ def test_one_view_alone_never_starts_a_track_on_the_floor_but_continues_one():
     assert on_walker.all() and np.unique(tr.track_id).size == 1
     assert tr.frame.max() >= n - 5  # continued by cam0 alone on the floor after frame 20
     assert res.summary["floor_single_view"] > 0 and res.summary["plane_single_view_unlinked"] > 0
+
+
+def test_merge_keeps_an_over_determined_triangulation():
+    # (frame, track) groups: A = a 3-view triangulation and a 2-view plane estimate; B = two 2-view
+    # triangulations; C = a 3-view and a 4-view triangulation; D = one plane estimate
+    frame = np.array([1, 1, 1, 1, 2, 2, 3])
+    track = np.array([0, 0, 1, 1, 0, 0, 0])
+    x = np.array([1.0, 1.4, 2.0, 2.2, 3.0, 3.4, 5.0])
+    xyz = np.stack([x, np.zeros(7), np.full(7, 0.9)], axis=1)
+    source = np.array([0, 1, 0, 0, 0, 0, 1], np.int8)
+    views = np.array([3, 2, 2, 2, 3, 4, 1], np.int8)
+    top, bottom = np.full(7, 1.8), np.zeros(7)
+    plain = merge_overlaps(frame, track, xyz, top, bottom, source, views)
+    best = merge_overlaps(frame, track, xyz, top, bottom, source, views, best_only=True)
+    assert np.allclose(plain.xyz[:, 0], [1.2, 2.1, 3.2, 5.0])  # Eq. 12: the plain average
+    assert np.allclose(best.xyz[:, 0], [1.0, 2.1, 3.2, 5.0])  # only A changes: the 3-view estimate alone
+    assert best.n_views.tolist() == [3, 2, 4, 1] and best.source.tolist() == [0, 0, 0, 1]
+    assert np.array_equal(best.frame, plain.frame) and np.array_equal(best.track_id, plain.track_id)

@@ -138,7 +138,8 @@ class WindowRecords:
     :class:`MemberRows`.
     """
 
-    def __init__(self):
+    def __init__(self, best_only: bool = False):
+        self.best_only = best_only  # cascade+: Eq. 12 over the best-observed estimates only (merge_overlaps)
         self._estimates: list[Tracks3D] = []
         self._members: list[MemberRows] = []
 
@@ -169,7 +170,7 @@ class WindowRecords:
         done = rows.frame <= upto
         self._estimates = [rows.select(~done)] if not done.all() else []
         r = rows.select(done)
-        return merge_overlaps(r.frame, r.track_id, r.xyz, r.top_z, r.bottom_z, r.source, r.n_views)
+        return merge_overlaps(r.frame, r.track_id, r.xyz, r.top_z, r.bottom_z, r.source, r.n_views, self.best_only)
 
     def boxes(self, upto: int, n_cameras: int, n_tracks: int) -> tuple[np.ndarray, ...] | None:
         """The tracks' detections of the frames up to ``upto`` (then forgotten): per detection the

@@ -85,7 +85,7 @@ COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulate
           "segments_dropped_ghost", "plane_single_view_outside", "links_2d", "fused_plane", "fused_triangulated",
           "fused_to_plane_stage")
 #: cascade+ only (in its summary only, so the other modes' outputs stay as they were)
-PLUS_COUNTS = ("floor_single_view",)
+PLUS_COUNTS = ("floor_single_view", "floor_ghosts_confirmed")
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
 
 
@@ -147,7 +147,7 @@ class Tracker:
         self._window_index = 0
         self._finished = False
         self.table = BoxTable(rig)  # the boxes of frames not yet final
-        self.records = WindowRecords()  # the windows' 3D points and member boxes until final
+        self.records = WindowRecords(best_only=self.plus)  # the windows' 3D points and member boxes until final
         self._out: list[TrackerOutput] = []
         self._nothing = TrackerOutput.empty(self.names)  # what most calls return
         # counters
@@ -338,7 +338,8 @@ class Tracker:
             self.counts["tracklets_outliers"] += int(bad.sum())
             tri = tri.subset(~bad)
         if self.plus:  # the floor's ghost test; a ghost's segments may go to the floor only
-            tri, self._floor_only = drop_floor_ghosts(tri, segs, self.rig.arrays, self.plane_arrays, p, self.scene, self.counts)
+            tri, self._floor_only = drop_floor_ghosts(tri, segs, self.rig.arrays, self.plane_arrays, p, self.scene, self.counts,
+                                                      self.linker.owners(segs.track2d))
         self.counts["clusters_triangulated"] += len(tri)
         return tri, to_plane
 
