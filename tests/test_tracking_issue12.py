@@ -83,3 +83,39 @@ def test_merge_keeps_an_over_determined_triangulation():
     assert np.allclose(best.xyz[:, 0], [1.0, 2.1, 3.2, 5.0])  # only A changes: the 3-view estimate alone
     assert best.n_views.tolist() == [3, 2, 4, 1] and best.source.tolist() == [0, 0, 0, 1]
     assert np.array_equal(best.frame, plain.frame) and np.array_equal(best.track_id, plain.track_id)
+
+
+def test_a_duplicate_continued_instead_of_the_older_track_hands_back_the_older_id():
+    from collections import defaultdict
+
+    from gymtrack.tracking.linking import WindowLinker
+    from gymtrack.tracking.types import WindowTracklets3D
+
+    def window(start, xs):
+        M = len(xs)
+        xyz = np.zeros((M, 10, 3))
+        xyz[..., 0] = np.asarray(xs, float)[:, None]
+        v = np.ones((M, 10), bool)
+        members = np.arange(2 * M).reshape(M, 2)
+        return WindowTracklets3D(start, xyz, np.full((M, 10), 1.8), np.zeros((M, 10)), v, np.zeros((M, 10), np.int8),
+                                 np.full((M, 10), 2, np.int8), members, np.full(M, -1))
+
+    for by_2d, expect in ((True, 0), (False, 1)):
+        counts = defaultdict(int)
+        linker = WindowLinker(5, 0.6, 0, 1.0, counts, by_2d=by_2d)
+        none = np.zeros(1, bool)
+        a = linker.step(window(0, [0.0]), np.array([10, 11]), none, none)
+        # window 5: the person's views split into two clusters, 0.2 m apart: a duplicate track is born
+        b = linker.step(window(5, [0.0, 0.2]), np.array([10, 11, 20, 21]), np.zeros(2, bool), np.zeros(2, bool))
+        assert a.track_id.tolist() == [0] and b.track_id.tolist() == [0, 1]
+        # window 10: one cluster, nearer the duplicate (Eq. 10 links it to track 1, track 0 is not continued)
+        c = linker.step(window(10, [0.25]), np.array([10, 21]), none, none)
+        assert c.track_id.tolist() == [expect]  # cascade+ keeps the older identity
+        assert counts["links_older"] == int(by_2d)
+    # a young track far from the lost one is not a duplicate: no hand-back
+    counts = defaultdict(int)
+    linker = WindowLinker(5, 0.6, 0, 1.0, counts, by_2d=True)
+    linker.step(window(0, [0.0]), np.array([10, 11]), none, none)
+    linker.step(window(5, [0.0, 2.0]), np.array([10, 11, 20, 21]), np.zeros(2, bool), np.zeros(2, bool))
+    c = linker.step(window(10, [2.05]), np.array([20, 21]), none, none)
+    assert c.track_id.tolist() == [1] and counts["links_older"] == 0

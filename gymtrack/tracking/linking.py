@@ -21,7 +21,9 @@ paper's behaviour.
 window's linked tracklets and the 2D tracks they were made of, the live tracks' last frames,
 the lost tracks (may still be re-linked) and the ended ones (for the target stage, Eq. 13).
 Beyond the paper, a cascade here too: candidates of several views link first; one-view plane
-tracklets only to what is left, and only to continue a track (never to start one).
+tracklets only to what is left, and only to continue a track (never to start one). ``cascade+``
+(issue 12): a duplicate track born beside an older one hands the older id on when linking
+continued the duplicate instead (:meth:`WindowLinker._keep_older`).
 """
 
 from __future__ import annotations
@@ -242,6 +244,7 @@ class WindowLinker:
         # 2D track ids that were members of the previous window's 3D tracklets (single-view continuation)
         self.prev_2d = np.zeros(0, np.int64)
         self.prev_seen = np.zeros(0, np.int64)  # 2D tracks of the previous window's segments
+        self._prev_first_new = 0  # the first track id the previous window started (younger ids: born there)
 
     def __len__(self) -> int:
         """Stored items: the previous window's (tracklet, frame) cells and the tracks' entries."""
@@ -286,6 +289,9 @@ class WindowLinker:
         """
         self._track2d, self._floor = track2d, floor
         ids = self._link(cur, solo)
+        if self.by_2d and self.prev is not None and len(self.prev) and self.prev.start == cur.start - self.window_step:
+            self._keep_older(ids)
+        first_new = self.next_track_id
         new = ids < 0
         if solo.any():
             drop = solo & new
@@ -300,6 +306,7 @@ class WindowLinker:
         if self.by_2d:
             self.prev_owner = np.broadcast_to(cur.track_id[:, None], cur.members.shape)[cur.members >= 0]
         self.prev_seen = track2d
+        self._prev_first_new = first_new
         self._end_tracks(cur)
         self.prev = cur
         return cur
@@ -327,6 +334,24 @@ class WindowLinker:
             if self.lost and len(cols) and self.relink_frames > 0:  # beyond the paper: bridge short gaps
                 self._relink(cur, cols, ids)
         return ids
+
+    def _keep_older(self, ids: np.ndarray) -> None:
+        """``cascade+``: a track born in the previous window beside an older track (their tracklets
+        there within ``link_3d``, Eq. 10 over the whole window) is a duplicate of it -- Algorithm 1
+        split one person's views into two clusters. When linking continued the young duplicate
+        and not the older track, the continuation takes the older id (written into ``ids``); the
+        young one is lost. Trade: two people who really met within ``link_3d`` of each other while
+        one of them had just appeared may swap ids."""
+        prev = self.prev
+        on = member(prev.track_id, ids[ids >= 0])
+        older = prev.track_id < self._prev_first_new
+        old, young = np.flatnonzero(~on & older), np.flatnonzero(on & ~older)
+        if not len(old) or not len(young):
+            return
+        r, c = link(link_distances(prev.xyz[old], prev.valid[old], prev.xyz[young], prev.valid[young], 0), self.link_3d)
+        for o, y in zip(prev.track_id[old[r]].tolist(), prev.track_id[young[c]].tolist()):
+            ids[ids == y] = o
+        self.counts["links_older"] += len(r)
 
     def _link_by_2d(self, cur: WindowTracklets3D, ids: np.ndarray) -> None:
         """Floor tracklets of two or more views whose 2D tracks all belonged to one previous track

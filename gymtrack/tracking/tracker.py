@@ -85,7 +85,7 @@ COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulate
           "segments_dropped_ghost", "plane_single_view_outside", "links_2d", "fused_plane", "fused_triangulated",
           "fused_to_plane_stage")
 #: cascade+ only (in its summary only, so the other modes' outputs stay as they were)
-PLUS_COUNTS = ("floor_single_view", "floor_ghosts_confirmed")
+PLUS_COUNTS = ("floor_single_view", "floor_ghosts_confirmed", "links_older")
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
 
 
