@@ -132,7 +132,7 @@ AIR = 0.25  #: metres: a body whose bottom is higher than this has left the floo
 
 
 def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig: RigArrays, planes, params, scene,
-                      counts: dict, owner: np.ndarray | None = None) -> tuple[WindowTracklets3D | None, np.ndarray]:
+                      counts: dict, owner=None) -> tuple[WindowTracklets3D | None, np.ndarray]:
     """``cascade+``: the two-view triangulated clusters the floor says are ghosts (a wrong pair
     of two people's segments triangulates to a short body floating above the floor).
 
@@ -141,7 +141,8 @@ def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig:
     the floor) or when both views' floor candidates are plausible and stand farther apart than
     the plane threshold (each view sees someone standing elsewhere) while their candidates on
     the apparatus planes (Eq. 7-8, ``planes``) disagree too (a gymnast in the air is on them).
-    ``owner`` (K,): the previous window's 3D track of each segment's 2D track (-1: none); a pair
+    ``owner`` (K,) or a callable giving it: the previous window's 3D track of each segment's 2D
+    track (-1: none); a pair
     whose two 2D tracks were both members of one track there is *confirmed* and never a ghost
     (the test is for new, wrong pairings; issue 12: it also took the target's own pair in the
     air off the apparatus plane, e.g. on the pommel horse). Trade: a wrong pair that survived one
@@ -158,6 +159,7 @@ def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig:
         _c(segs.observed), _c(segs.camera, np.int64), rig, PlaneArrays.from_planes(planes),
         _f64(scene.performance_space), AIR, MIN_COS, _rules(params.cluster_plane))
     if owner is not None and ghost.any():  # a pair already one track's in the last window is confirmed
+        owner = owner() if callable(owner) else owner  # (the tracker's look-up: only when needed)
         o = np.where(tri.members >= 0, owner[np.maximum(tri.members, 0)], -2)
         lo = np.where(tri.members >= 0, o, np.iinfo(np.int64).max).min(axis=1)
         confirmed = (lo >= 0) & ((o == lo[:, None]) | (tri.members < 0)).all(axis=1)

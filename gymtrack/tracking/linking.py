@@ -165,19 +165,6 @@ def merge_overlaps(
     """
     if len(frame) == 0:
         return Tracks3D.empty()
-    if best_only:
-        lo = track_id.min()
-        key = (frame - frame.min()) * (track_id.max() - lo + 1) + (track_id - lo)
-        rank = np.where((source == 0) & (n_views >= 3), 0, 1)  # over-determined triangulations first
-        order = np.lexsort((rank, key))
-        k, r = key[order], rank[order]
-        first = np.ones(len(k), bool)
-        np.not_equal(k[1:], k[:-1], out=first[1:])
-        head = np.maximum.accumulate(np.where(first, np.arange(len(k)), 0))  # each row's group's best
-        keep = np.sort(order[r == r[head]])
-        if len(keep) < len(frame):
-            frame, track_id, xyz, top_z, bottom_z, source, n_views = (
-                c[keep] for c in (frame, track_id, xyz, top_z, bottom_z, source, n_views))
     # one stable argsort of a combined (frame, track) key: cheaper than lexsort of two keys
     lo = track_id.min()
     key = (frame - frame.min()) * (track_id.max() - lo + 1) + (track_id - lo)
@@ -191,6 +178,14 @@ def merge_overlaps(
     if len(start) == len(key):  # every (frame, track) has one estimate: nothing to average
         return Tracks3D(frame, track_id, xyz, top_z, bottom_z, source.astype(np.int8), n_views.astype(np.int8))
     count = np.diff(np.append(start, len(key)))
+    if best_only:  # where a group has an over-determined triangulation, only those are averaged
+        strong = (source == 0) & (n_views >= 3)
+        keep = strong | ~np.repeat(np.logical_or.reduceat(strong, start), count)
+        if not keep.all():
+            frame, track_id, xyz, top_z, bottom_z, source, n_views = (
+                c[keep] for c in (frame, track_id, xyz, top_z, bottom_z, source, n_views))
+            count = np.add.reduceat(keep.astype(np.int64), start)  # every group keeps a row
+            start = np.r_[0, np.cumsum(count)[:-1]]
 
     def mean(v):
         ok = np.isfinite(v)

@@ -339,7 +339,7 @@ class Tracker:
             tri = tri.subset(~bad)
         if self.plus:  # the floor's ghost test; a ghost's segments may go to the floor only
             tri, self._floor_only = drop_floor_ghosts(tri, segs, self.rig.arrays, self.plane_arrays, p, self.scene, self.counts,
-                                                      self.linker.owners(segs.track2d))
+                                                      lambda: self.linker.owners(segs.track2d))
         self.counts["clusters_triangulated"] += len(tri)
         return tri, to_plane
 
