@@ -146,7 +146,7 @@ def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig:
     whose two 2D tracks were both members of one track there is *confirmed* and never a ghost
     (the test is for new, wrong pairings; issue 12: it also took the target's own pair in the
     air off the apparatus plane, e.g. on the pommel horse). Trade: a wrong pair that survived one
-    window keeps surviving while both its 2D tracks last (about +4 % false positives on the
+    window keeps surviving while both its 2D tracks last (+4 to +7 % false positives on the
     suite, -0.005 MOTA). Returns the clusters kept
     and the ghosts' segments (indices into ``segs``, for the floor stage only). One kernel call
     (:func:`._kernels.floor.ghost_test`).
