@@ -170,9 +170,10 @@ class WindowRecords:
     :class:`MemberRows`.
     """
 
-    def __init__(self, superseded: bool = False):
+    def __init__(self, superseded: bool = False, best_only: bool = False):
         self.superseded = bool(superseded)  # cascade+: drop the estimates whose boxes later windows took
         self.dropped = 0  # points flagged that way
+        self.best_only = best_only  # cascade+: Eq. 12 over the best-observed estimates only (merge_overlaps)
         self._estimates: list[Tracks3D] = []
         self._windows: list[np.ndarray] = []  # the window index of every estimate (parallel to _estimates)
         self._members: list[MemberRows] = []
@@ -212,7 +213,7 @@ class WindowRecords:
         self._estimates = [rows.select(~done)] if not done.all() else []
         self._windows = [win[~done]] if not done.all() else []
         r = rows.select(done)
-        out = merge_overlaps(r.frame, r.track_id, r.xyz, r.top_z, r.bottom_z, r.source, r.n_views)
+        out = merge_overlaps(r.frame, r.track_id, r.xyz, r.top_z, r.bottom_z, r.source, r.n_views, self.best_only)
         gone = np.zeros(len(out), bool)
         if self.superseded and self._members and len(out):
             mem = MemberRows.concat(self._members)

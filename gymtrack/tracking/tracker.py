@@ -67,13 +67,13 @@ from ..geometry.views import opposite_pairs
 from ._kernels import warm_up
 from ._kernels.single_view import frame_rows_check
 from .clustering import complete_linkage, tracklet_distances
-from .floor import drop_floor_ghosts, floor_split, solo_inside
+from .floor import continuation_only, drop_floor_ghosts, floor_split, solo_inside
 from .exclusion import suppress_duplicates
 from .fusion import COUNTS as FUSION_COUNTS, PlaneRayFusion
 from .linking import WindowLinker
 from .motion_link import COUNTS as MOTION_COUNTS, MotionLinker
 from .plane_fallback import plane_stage
-from .reconstruct import cluster_members, opposite_clusters, outliers, triangulate_clusters
+from .reconstruct import cluster_members, opposite_clusters, outliers, outliers_by_place, triangulate_clusters
 from .single_view import IoUTracker
 from .single_view_motion import COUNTS as VIEW_COUNTS, MotionIoUTracker, needs_motion
 from .target import TargetStage
@@ -92,8 +92,9 @@ COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulate
 #: cascade+: seconds a segment's end box is held beyond its last observation (windows); a walker
 #: moves ~0.3 m in that time, so at 2 fps no box is held (held boxes there were 1.4 m stale ghosts)
 HOLD_SECONDS = 0.2
-#: cascade+'s own counters (the per-view motion tracker's, the motion link's, the exclusion's)
-PLUS_COUNTS = MOTION_COUNTS + VIEW_COUNTS + ("points_suppressed",)
+#: cascade+'s own counters, in its summary only (so the other modes' outputs stay as they were)
+PLUS_COUNTS = MOTION_COUNTS + VIEW_COUNTS + ("points_suppressed", "floor_single_view", "floor_ghosts_confirmed",
+                                            "links_older")
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
 
 
@@ -123,6 +124,7 @@ class Tracker:
         self.rig, self.scene, self.mode, self.association = rig, scene, mode, association
         self.plus = mode == "cascade+"  # the beyond-the-paper additions (floor, ...) are gated on this
         self._floor_only = np.zeros(0, np.int64)  # cascade+: this window's segments of ghost clusters
+        self._outliers = outliers_by_place if self.plus else outliers  # Eq. 4 (cascade+: S_track by the mean)
         p = self.params = scene.params
         self.width, self.step = p.window, p.step
         self.n_cameras = len(rig)
@@ -159,7 +161,7 @@ class Tracker:
         self._window_index = 0
         self._finished = False
         self.table = BoxTable(rig)  # the boxes of frames not yet final
-        self.records = WindowRecords(superseded=self.plus)  # the windows' 3D points and member boxes until final
+        self.records = WindowRecords(superseded=self.plus, best_only=self.plus)  # the windows' 3D points, member boxes
         self._out: list[TrackerOutput] = []
         self._nothing = TrackerOutput.empty(self.names)  # what most calls return
         # counters
@@ -227,7 +229,7 @@ class Tracker:
             "target_frames": int(self.target.frames),
             "target_switches": int(self.target.switches),
             "target_identifications": int(self.target.identifications),
-            **{k: int(self.counts[k]) for k in COUNTS + (PLUS_COUNTS if self.motion is not None else ())
+            **{k: int(self.counts[k]) for k in COUNTS + (PLUS_COUNTS if self.plus else ())
                + (FUSION_COUNTS if self.fusion is not None else ())},
             "seconds": {k: round(v, 6) for k, v in self.timings.items()},
             "seconds_total": round(total, 6),
@@ -347,12 +349,13 @@ class Tracker:
             self.counts["segments_dropped_single"] += int(np.count_nonzero(~multi))
         tri = triangulate_clusters(segs, members[multi], self.P)
         tri = tri if fused is None else WindowTracklets3D.concat([tri, fused])
-        bad = outliers(tri.xyz, tri.valid, self.space, p.max_speed)
+        bad = self._outliers(tri.xyz, tri.valid, self.space, p.max_speed)
         if bad.any():
             self.counts["tracklets_outliers"] += int(bad.sum())
             tri = tri.subset(~bad)
         if self.plus:  # the floor's ghost test; a ghost's segments may go to the floor only
-            tri, self._floor_only = drop_floor_ghosts(tri, segs, self.rig.arrays, self.plane_arrays, p, self.scene, self.counts)
+            tri, self._floor_only = drop_floor_ghosts(tri, segs, self.rig.arrays, self.plane_arrays, p, self.scene, self.counts,
+                                                      lambda: self.linker.owners(segs.track2d))
         self.counts["clusters_triangulated"] += len(tri)
         return tri, to_plane
 
@@ -382,7 +385,7 @@ class Tracker:
             return None, floor
         if self.fusion is not None:  # cascade+: two-view plane tracklets fused with the plane (.fusion)
             pl = self.fusion.refine(sub, pl)
-        bad = outliers(pl.xyz, pl.valid, self.space, p.max_speed)
+        bad = self._outliers(pl.xyz, pl.valid, self.space, p.max_speed)
         if bad.any():
             self.counts["tracklets_outliers"] += int(bad.sum())
             pl = pl.subset(~bad)
@@ -400,11 +403,7 @@ class Tracker:
         # (one part is used as it is: the stages never write into a window's tracklets)
         cur = (parts[0] if len(parts) == 1 else WindowTracklets3D.concat(parts)) if parts else \
             WindowTracklets3D.empty(start, self.width, self.n_cameras)
-        solo = np.zeros(len(cur), bool)  # one-view plane tracklets: they may only continue a track
-        if plane is not None:
-            solo[len(cur) - len(plane):] = (plane.members >= 0).sum(axis=1) == 1
-        floor_rows = np.zeros(len(cur), bool)  # cascade+: the floor tracklets, after the triangulated ones
-        floor_rows[len(tri or ()):][:len(floor or ())] = True
+        solo, floor_rows = continuation_only(len(cur), tri, floor, plane, self.counts)
         cur = self.linker.step(cur, segs.track2d, solo, floor_rows)
         if self.motion is not None:
             self.motion.remember(cur, segs)

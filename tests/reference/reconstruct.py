@@ -31,6 +31,20 @@ def outliers_numpy(xyz, valid, space, max_speed):
     return bad
 
 
+def outliers_by_place_numpy(xyz, valid, space, max_speed):
+    """cascade+'s Eq. 4 before compilation: Eq. 4's speed test, the space test on the mean."""
+    M, W = valid.shape
+    if M == 0:
+        return np.zeros(0, bool)
+    anywhere = np.array([-np.inf] * 3 + [np.inf] * 3)
+    bad = outliers_numpy(xyz, valid, anywhere, max_speed)
+    n = valid.sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(valid[..., None], xyz, 0.0).sum(axis=1) / n[:, None]
+    inside = ((mean >= space[:3]) & (mean <= space[3:])).all(axis=1)
+    return bad | ~inside
+
+
 def triangulate_clusters_numpy(segs, members, P):
     """(centre (M, W, 3), top_z, bottom_z, valid, n_views) as before compilation."""
     M, C = members.shape

@@ -3,7 +3,8 @@
 :func:`cluster_points` gathers the centre, top-centre and bottom-centre pixels of every cluster
 and frame of a window, views-major, for Eq. 3 (:func:`gymtrack.geometry.primitives.triangulate_points`,
 the same solver the public :func:`gymtrack.geometry.triangulation.triangulate` runs);
-:func:`outliers` is Eq. 4. Numpy references: ``tests/reference/reconstruct.py``.
+:func:`outliers` is Eq. 4 (:func:`outliers_by_place`, ``cascade+``'s: the space test on the
+mean position). Numpy references: ``tests/reference/reconstruct.py``.
 """
 
 from __future__ import annotations
@@ -78,6 +79,41 @@ def outliers(xyz, valid, space, max_speed):
     return bad
 
 
+@njit(cache=True)
+def outliers_by_place(xyz, valid, space, max_speed):
+    """``cascade+``'s Eq. 4, :func:`gymtrack.tracking.reconstruct.outliers_by_place`: the speed test
+    on consecutive valid points, the tracking-space test on the mean of the valid points."""
+    M, W = valid.shape
+    bad = np.zeros(M, np.bool_)
+    for m in range(M):
+        n = 0
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        p = -1
+        for t in range(W):
+            if not valid[m, t]:
+                continue
+            n += 1
+            s0 += xyz[m, t, 0]
+            s1 += xyz[m, t, 1]
+            s2 += xyz[m, t, 2]
+            if p >= 0:
+                d0 = xyz[m, t, 0] - xyz[m, p, 0]
+                d1 = xyz[m, t, 1] - xyz[m, p, 1]
+                d2 = xyz[m, t, 2] - xyz[m, p, 2]
+                if np.sqrt(d0 * d0 + d1 * d1 + d2 * d2) > max_speed * (t - p):
+                    bad[m] = True
+            p = t
+        if n == 0:
+            bad[m] = True
+            continue
+        c0, c1, c2 = s0 / n, s1 / n, s2 / n
+        if not (c0 >= space[0] and c0 <= space[3] and c1 >= space[1] and c1 <= space[4]
+                and c2 >= space[2] and c2 <= space[5]):
+            bad[m] = True
+    return bad
+
 
 def warm_up() -> None:
     """Compile (or load) the kernels: the sample person triangulated from both views."""
@@ -86,3 +122,4 @@ def warm_up() -> None:
     X, _ = triangulate_points(s.rig.arrays.P, u, v, np.isfinite(u), 1)
     xyz = np.ascontiguousarray(X.reshape(3, 3, 1, -1)[:, 0].transpose(1, 2, 0))
     outliers(xyz, np.isfinite(xyz).all(axis=2), np.array([-5.0, -5.0, 0.0, 5.0, 5.0, 3.0]), 0.5)
+    outliers_by_place(xyz, np.isfinite(xyz).all(axis=2), np.array([-5.0, -5.0, 0.0, 5.0, 5.0, 3.0]), 0.5)
