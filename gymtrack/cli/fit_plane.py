@@ -52,12 +52,14 @@ def plane_bench(
     shift: float = typer.Option(0.3, "--shift", help="metres the wrong plane is shifted along its normal"),
     turn: float = typer.Option(10.0, "--turn", help="degrees the wrong plane is turned about the vertical"),
     out: Optional[Path] = typer.Option(None, "--out", "-o", help="write the rows as JSON here"),
+    markdown: Optional[Path] = typer.Option(None, "--markdown", help="write the per apparatus x n_cam table here"),
+    refine_every: int = typer.Option(20, "--refine-every", min=1, help="windows between the online refits (cascade+)"),
 ) -> None:
-    """The wrong-plane experiment: target AED with the true, shifted/turned and fitted planes."""
+    """The wrong-plane experiment: target AED with the true, shifted/turned, fitted and online-refined planes."""
     import numpy as np
 
     from gymtrack.eval.benchmark import read_suite
-    from gymtrack.eval.plane_bench import plane_experiment
+    from gymtrack.eval.plane_bench import plane_experiment, plane_markdown, plane_table
     from gymtrack.formats.ground_truth import load_ground_truth
     from gymtrack.formats.routine import load_routine
 
@@ -65,9 +67,15 @@ def plane_bench(
     for spec in read_suite(suite):
         r = load_routine(spec.path)
         gt = load_ground_truth(spec.path, r.rig.names, image_size=np.array([c.size for c in r.rig], dtype=np.float64))
-        row = {"routine": spec.name, "apparatus": spec.apparatus, "n_cam": spec.n_cam, **plane_experiment(r, gt, shift, turn)}
+        row = {"routine": spec.name, "apparatus": spec.apparatus, "n_cam": spec.n_cam, **plane_experiment(r, gt, shift, turn, refine_every=refine_every)}
         rows.append(row)
         console.print(f"{spec.name}: AED true {row['aed_true']:.3f} wrong {row['aed_wrong']:.3f} fitted "
-                      f"{row['aed_fitted']:.3f} m; fitted plane {row['offset_m']:.3f} m, {row['angle_deg']:.2f} deg off")
+                      f"{row['aed_fitted']:.3f} m; fitted plane {row['offset_m']:.3f} m, {row['angle_deg']:.2f} deg off"
+                      f"{'' if row['direction_determined'] else ' (direction kept: ' + row['why_not'] + ')'}; cascade+ "
+                      f"true {row['aed_true_plus']:.3f} online {row['aed_online']:.3f} m", soft_wrap=True)
     if out is not None:
         out.write_text(json.dumps(rows, indent=1))
+    md = plane_markdown(plane_table(rows))
+    console.print(md, soft_wrap=True)
+    if markdown is not None:
+        markdown.write_text(md)

@@ -69,6 +69,7 @@ from .fusion import PlaneRayFusion
 from .linking import WindowLinker
 from .motion_link import COUNTS as MOTION_COUNTS, MotionLinker
 from .plane_fallback import plane_stage
+from .plane_refine import PlaneRefiner
 from .reconstruct import cluster_members, opposite_clusters, outliers, triangulate_clusters
 from .single_view import IoUTracker
 from .target import TargetStage
@@ -77,6 +78,7 @@ from .records import BoxTable, WindowRecords
 from .windows import build_window
 
 MODES = ("cascade", "triangulation", "plane", "cascade+")
+REFINE_EVERY = 20  #: windows between online plane refits when planes: auto turns refinement on
 ASSOCIATIONS = ("iou", "oracle")
 #: the per-window counters of :meth:`Tracker.summary` (what was used, made, dropped)
 COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulated", "segments_to_plane",
@@ -135,6 +137,9 @@ class Tracker:
         self.motion = (MotionLinker(self.P, p.step, p.window, p.max_age, p.max_speed, self.counts)
                        if self.plus and association == "iou" else None)
         self.target = TargetStage(rig, scene)
+        # cascade+: the apparatus plane refined online (.plane_refine); planes: auto turns it on
+        every = p.refine_plane or (REFINE_EVERY if scene.auto_planes else 0)
+        self.refiner = PlaneRefiner(self.P, scene, self.planes[0], every) if self.plus and every else None
         # stream position
         self.first_frame: int | None = None
         self.last_frame: int | None = None
@@ -217,6 +222,8 @@ class Tracker:
             "seconds_total": round(total, 6),
             "fps": round(frames / total, 1) if total > 0 else None,
         }
+        if self.refiner is not None:
+            s["plane_refinement"] = self.refiner.summary()
         if self.association == "oracle":
             s["detections_dropped_false_positive"] = {n: int(v) for n, v in zip(names, self.false_positives)}
             s["detections_dropped_duplicate"] = int(self.counts["duplicates"])
@@ -271,7 +278,19 @@ class Tracker:
         tri, to_plane = self._timed("triangulation", self._triangulate, segs, labels)
         plane, floor = self._timed("plane", self._plane_fallback, segs, to_plane, D2)
         self._timed("linking", self._link, start, segs, tri, plane, floor)
+        if self.refiner is not None and self.refiner.due():
+            self._timed("plane", self._refine_plane, start)
         self._finalise(start + self.step - 1)
+
+    def _refine_plane(self, start: int) -> None:
+        """cascade+: the plane refitted from the tracker's own points (:mod:`.plane_refine`)."""
+        moved = self.refiner.refit(start + self.width - 1)
+        if moved is not None:
+            self.planes = [moved] + self.planes[1:]
+            self.plane_arrays = PlaneArrays.from_planes(self.planes)
+            self.target.planes = self.planes  # (Eq. 14's boxes follow the plane's normal)
+            if self.fusion is not None:
+                self.fusion.planes = self.plane_arrays
 
     def _timed(self, stage: str, fn: Callable, *args):
         t0 = time.perf_counter()
@@ -327,6 +346,8 @@ class Tracker:
             multi &= ~fallback
         else:
             self.counts["segments_dropped_single"] += int(np.count_nonzero(~multi))
+        if self.refiner is not None:  # cascade+: every cluster of >= 2 views, opposite pairs too, feeds the plane
+            self.refiner.observe(segs, members[(members >= 0).sum(axis=1) >= 2])
         tri = triangulate_clusters(segs, members[multi], self.P)
         tri = tri if fused is None else WindowTracklets3D.concat([tri, fused])
         bad = outliers(tri.xyz, tri.valid, self.space, p.max_speed)

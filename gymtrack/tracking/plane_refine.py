@@ -1,0 +1,107 @@
+"""Online refinement of the apparatus plane from the tracker's own points (beyond the paper: issue 12).
+
+Paper: Section III-C's vertical plane (Eq. 7) is fixed before tracking. In ``cascade+`` with
+``params.refine_plane`` > 0 (or ``planes: auto``) the tracker refits it as it goes: every
+window, the clusters of two or more views (opposite pairs included: the plane stage still
+takes those, but here they are triangulated too, Eq. 3) give points, kept when they are on
+the apparatus (:func:`~.plane_fit.on_apparatus`: inside ``S_perf``, the body's bottom above
+``h_bot``, so coaches and people standing by do not count). Every ``refine_plane`` windows
+:func:`~gymtrack.geometry.plane_fit.fit_apparatus_plane` refits the plane from the last
+``max_points`` of them, each weighted by its triangulation covariance (an opposite pair's point
+counts for little along the cameras' axis), with the current plane as the preset: where the
+data do not determine the direction only the offset moves. The plane moves when the fit
+differs by more than ``min_move`` metres or ``min_turn`` degrees at the focus.
+
+Trade: a small ``refine_plane`` follows the data sooner but refits more often (each refit is a
+scan of 120 directions over at most ``max_points`` points, about 10 ms); points are gathered
+from each window's first ``step`` frames only (each frame once), in a bounded buffer.
+``summary()`` records how the plane moved (the tracker's summary, ``plane_refinement``).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+from ..geometry.plane import Plane
+from ..geometry.plane_fit import fit_apparatus_plane, plane_difference, triangulation_covariances
+from ..scene import Scene
+from .plane_fit import MIN_POINTS, on_apparatus
+from .reconstruct import triangulate_clusters
+from .types import WindowTracklets
+
+__all__ = ["PlaneRefiner"]
+
+
+class PlaneRefiner:
+    """Gathers well-observed points on the apparatus; refits the plane every ``every`` windows.
+
+    P: (C, 3, 4) projections (undistorted pixels, as the windows' boxes); plane: the starting plane.
+    """
+
+    def __init__(self, P: np.ndarray, scene: Scene, plane: Plane, every: int, max_points: int = 3000,
+                 min_move: float = 0.02, min_turn: float = 0.5):
+        p = scene.params
+        self.P, self.every, self.step = P, every, p.step
+        self.initial = self.plane = plane
+        self.focus = scene.focus_point
+        self.on = on_apparatus(scene)
+        self.pixel_sigma, self.box_sigma, self.stray = p.pixel_sigma, p.box_sigma, p.plane_sigma
+        self.min_move, self.min_turn = min_move, min_turn
+        self._buf: deque = deque()  # (xyz (n, 3), views (n, C), sigma (n, C)) per window
+        self._n = 0
+        self.max_points = max_points
+        self.windows = self.refits = self.moves = self.undetermined = 0
+        self.history: list[dict] = []
+
+    def observe(self, segs: WindowTracklets, members: np.ndarray) -> None:
+        """One window: ``members`` (M, C) clusters of >= 2 views (indices into ``segs``)."""
+        self.windows += 1
+        if len(members):
+            tri = triangulate_clusters(segs, members, self.P)
+            w = slice(0, self.step)  # the first step frames: windows overlap, each frame counts once
+            xyz, bottom = tri.xyz[:, w], tri.bottom_z[:, w]
+            ok = tri.valid[:, w] & (tri.n_views[:, w] >= 2)
+            ok[ok] = self.on(xyz[ok], bottom[ok])
+            if ok.any():
+                m, f = np.nonzero(ok)
+                seg = members[m]  # (n, C)
+                has = seg >= 0
+                segc = np.maximum(seg, 0)
+                views = has & segs.observed[segc, f[:, None]]
+                sigma = self.pixel_sigma + self.box_sigma * segs.box[segc, f[:, None], 3]
+                self._buf.append((xyz[m, f], views, np.where(views, sigma, 1.0)))
+                self._n += len(m)
+                while self._n - len(self._buf[0][0]) >= self.max_points:
+                    self._n -= len(self._buf.popleft()[0])
+
+    def due(self) -> bool:
+        return self.windows % self.every == 0 and self._n >= MIN_POINTS
+
+    def refit(self, frame: int) -> Plane | None:
+        """The refitted plane when it moved (else None); ``frame``: where the stream is (recorded)."""
+        xyz = np.concatenate([b[0] for b in self._buf])
+        views = np.concatenate([b[1] for b in self._buf])
+        sigma = np.concatenate([b[2] for b in self._buf])
+        cov = triangulation_covariances(self.P, xyz, views, sigma)
+        fit = fit_apparatus_plane(xyz, cov, self.plane, stray=self.stray, step_deg=0.5)
+        self.refits += 1
+        self.undetermined += not fit.determined
+        off, ang = plane_difference(fit.plane, self.plane, self.focus)
+        if off < self.min_move and ang < self.min_turn:
+            return None
+        self.plane = fit.plane
+        self.moves += 1
+        o0, a0 = plane_difference(self.plane, self.initial, self.focus)
+        self.history.append({"frame": int(frame), "points": int(len(xyz)), "direction_determined": fit.determined,
+                             "offset_from_start_m": round(o0, 4), "angle_from_start_deg": round(a0, 3)})
+        return self.plane
+
+    def summary(self) -> dict:
+        """How the plane moved: refits, moves, the final plane and its offset/angle from the start."""
+        off, ang = plane_difference(self.plane, self.initial, self.focus)
+        return {"refits": self.refits, "moves": self.moves, "refits_direction_undetermined": self.undetermined,
+                "points": self._n, "offset_from_start_m": round(off, 4), "angle_from_start_deg": round(ang, 3),
+                "point": self.plane.point.round(4).tolist(), "normal": self.plane.normal.round(5).tolist(),
+                "history": self.history[-20:]}
