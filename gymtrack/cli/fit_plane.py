@@ -1,7 +1,8 @@
 """``gymtrack fit-plane``: the apparatus plane and the floor fitted from a routine's data (beyond the paper).
 
 Paper: Section III-C's vertical plane (Eq. 7), here estimated (:mod:`gymtrack.tracking.plane_fit`):
-a ``triangulation``-mode pass, the target's well-triangulated centres, a RANSAC vertical plane;
+a ``triangulation``-mode pass, the target's triangulated centres weighted by their covariance, a
+vertical plane (its direction kept from scene.yaml, with a warning why, where the data do not fix it);
 the floor from standing people's box bottoms. Prints how far the scene's plane is from the
 fitted one; ``--write`` saves a scene.yaml with the fitted plane. ``gymtrack plane-bench`` runs
 the wrong-plane experiment of :mod:`gymtrack.eval.plane_bench` on a suite.
@@ -34,11 +35,14 @@ def fit_plane(
     from gymtrack.tracking.offline import track_detections
 
     r = load_routine(routine)
-    fit = fit_scene_planes(track_detections(r.rig, r.scene, r.detections, mode="triangulation"), r.scene, min_views)
+    fit = fit_scene_planes(track_detections(r.rig, r.scene, r.detections, mode="triangulation"), r.scene, min_views,
+                           rig=r.rig)
     console.print_json(json.dumps(fit.to_dict()))
     if fit.plane is None:
         console.print(f"[yellow]too few well-triangulated target points ({fit.n_target}) for a plane[/]")
         raise typer.Exit(1)
+    if not fit.plane.determined:
+        console.print(f"[yellow]the plane's direction is kept from scene.yaml ({fit.plane.reason}); only its offset was fitted[/]")
     if r.scene.planes:
         console.print(f"scene plane vs fitted: offset {fit.offset:.3f} m, angle {fit.angle:.2f} deg")
     if write is not None:

@@ -161,17 +161,21 @@ def fit_apparatus_plane(points: np.ndarray, cov: np.ndarray | None = None, prese
     ``point_sigma``^2 I); ``stray``: metres the body's centre strays from the plane. For every
     direction on a ``step_deg`` grid the offset is the weighted centre of the points along the
     normal and the cost their robust Gaussian misfit, ``min(r^2 / v, 9) + log v`` with ``v =
-    stray^2 + n^T Sigma n``, each point weighted by 1 / (points in its ``cell``-metre square of
-    the floor): dwell time (standing on the landing mat) does not outvote the ground the gymnast
-    covered. Trade: a coarser ``cell`` counts fewer cells and says "not determined" sooner; a larger ``min_ratio`` keeps the preset's direction more often.
+    stray^2 + n^T Sigma n``, each point weighted by ``min(1, cell_cap / points in its cell-metre
+    square of the floor)``: dwell time (standing on the landing mat) does not outvote the ground
+    the gymnast covered. Trade: a small ``cell_cap`` discards more of the (independent) pixel
+    noise averaging, a large one lets dwell time decide (measured on the suite's n_cam = 2
+    routines: 1 tilted the beam's fit 2 deg, 20 let the landing mat pull the vault's); a larger
+    ``min_ratio`` keeps the preset's direction more often.
 
-    The direction is *not determined* (``determined`` False, ``reason`` says why) with fewer than
-    ``min_cells`` stretches, a cloud whose spread along the plane is under ``min_ratio`` x its
+    The direction is *not determined* (``determined`` False, ``reason`` says why) with inliers in
+    fewer than ``min_cells`` cells, a cloud whose spread along the plane is under ``min_ratio`` x its
     spread across it (the pommel horse: the gymnast circles it), or an angle standard deviation
     over ``max_angle_sigma`` degrees, or (with a ``preset``, whose direction is searched only
     within ``max_turn`` degrees: a plane typed in by hand is roughly right) a best direction at
     the edge of that search; the plane then keeps ``preset``'s (horizontal) direction and only
-    its offset is fitted (without a preset the best direction is returned, still flagged).
+    its offset is fitted (without a preset the best direction is returned, still flagged;
+    ``max_turn=0`` with a preset fits the offset only).
     """
     p = _checked(points, 2, 3)
     finite = np.isfinite(np.asarray(points, dtype=np.float64).reshape(-1, 3)).all(axis=1)
@@ -205,13 +209,13 @@ def fit_apparatus_plane(points: np.ndarray, cov: np.ndarray | None = None, prese
     across = float(np.sqrt((wi @ r ** 2) / wi.sum()))
     fisher = float((wi * (t - tm) ** 2 / v).sum())  # each stretch one observation: the angle's information
     sigma_deg = float(np.degrees(1.0 / np.sqrt(fisher))) if fisher > 0 else float("inf")
-    cells = int(np.round(wi.sum()))
+    cells = len(np.unique(inv.ravel()[inl]))
     reason = ""
-    if preset is not None and abs(np.degrees(a - a0)) > max_turn - 2 * step_deg:
+    if cells < min_cells:
+        reason = f"the points cover {cells} cells of {cell} m, under {min_cells}"
+    elif preset is not None and abs(np.degrees(a - a0)) > max_turn - 2 * step_deg:
         reason = (f"the best direction lies at the edge of the {max_turn:g} deg searched about the preset's: "
                   "the points favour another plane (a gymnast circling the apparatus)")
-    elif cells < min_cells:
-        reason = f"the points cover {cells} cells of {cell} m, under {min_cells}"
     elif along < min_ratio * across:
         reason = f"the points are not elongated along a vertical plane (spread {along:.2f} m along, {across:.2f} m across)"
     elif sigma_deg > max_angle_sigma:

@@ -8,8 +8,8 @@ the apparatus (:func:`~.plane_fit.on_apparatus`: inside ``S_perf``, the body's b
 ``h_bot``, so coaches and people standing by do not count). Every ``refine_plane`` windows
 :func:`~gymtrack.geometry.plane_fit.fit_apparatus_plane` refits the plane from the last
 ``max_points`` of them, each weighted by its triangulation covariance (an opposite pair's point
-counts for little along the cameras' axis), with the current plane as the preset: where the
-data do not determine the direction only the offset moves. The plane moves when the fit
+counts for little along the cameras' axis), its direction searched about the starting plane's:
+where the data do not determine it only the offset moves. The plane moves when the fit
 differs by more than ``min_move`` metres or ``min_turn`` degrees at the focus.
 
 Trade: a small ``refine_plane`` follows the data sooner but refits more often (each refit is a
@@ -85,9 +85,13 @@ class PlaneRefiner:
         views = np.concatenate([b[1] for b in self._buf])
         sigma = np.concatenate([b[2] for b in self._buf])
         cov = triangulation_covariances(self.P, xyz, views, sigma)
-        fit = fit_apparatus_plane(xyz, cov, self.plane, stray=self.stray, step_deg=0.5)
+        # the direction is searched about the starting plane (a refit must not wander 30 deg per round);
+        # where the data do not fix it, the current direction is kept and only the offset refitted
+        fit = fit_apparatus_plane(xyz, cov, self.initial, stray=self.stray)
         self.refits += 1
-        self.undetermined += not fit.determined
+        if not fit.determined:
+            self.undetermined += 1
+            fit = fit_apparatus_plane(xyz, cov, self.plane, stray=self.stray, max_turn=0.0)
         off, ang = plane_difference(fit.plane, self.plane, self.focus)
         if off < self.min_move and ang < self.min_turn:
             return None
