@@ -77,7 +77,10 @@ class PlaneRefiner:
                     self._n -= len(self._buf.popleft()[0])
 
     def due(self) -> bool:
-        return self.windows % self.every == 0 and self._n >= MIN_POINTS
+        """A refit now: every ``every`` windows, and as soon as there are enough points for a first."""
+        if self._n < MIN_POINTS:
+            return False
+        return self.windows % self.every == 0 or (self.refits == 0 and self._n >= MIN_POINTS)
 
     def refit(self, frame: int) -> Plane | None:
         """The refitted plane when it moved (else None); ``frame``: where the stream is (recorded)."""
