@@ -206,7 +206,10 @@ def fit_apparatus_plane(points: np.ndarray, cov: np.ndarray | None = None, prese
     tm = (wi @ t) / wi.sum()
     along = float(np.sqrt((wi @ (t - tm) ** 2) / wi.sum()))
     r = xy @ n - d
-    across = float(np.sqrt((wi @ r ** 2) / wi.sum()))
+    # the spread across the plane that the points' own noise does not explain (an opposite pair's
+    # scatter along the cameras' axis is noise, not the gymnast leaving the plane)
+    noise = np.einsum("i,nij,j->n", n, S, n)
+    across = float(np.sqrt(max((wi @ (r ** 2 - noise)) / wi.sum(), 0.0)))
     fisher = float((wi * (t - tm) ** 2 / v).sum())  # each stretch one observation: the angle's information
     sigma_deg = float(np.degrees(1.0 / np.sqrt(fisher))) if fisher > 0 else float("inf")
     cells = len(np.unique(inv.ravel()[inl]))
@@ -217,7 +220,8 @@ def fit_apparatus_plane(points: np.ndarray, cov: np.ndarray | None = None, prese
         reason = (f"the best direction lies at the edge of the {max_turn:g} deg searched about the preset's: "
                   "the points favour another plane (a gymnast circling the apparatus)")
     elif along < min_ratio * across:
-        reason = f"the points are not elongated along a vertical plane (spread {along:.2f} m along, {across:.2f} m across)"
+        reason = (f"the points are not elongated along a vertical plane (spread {along:.2f} m along, "
+                  f"{across:.2f} m across beyond their noise)")
     elif sigma_deg > max_angle_sigma:
         reason = f"the direction is uncertain ({sigma_deg:.1f} deg standard deviation)"
     if reason and preset is not None:
