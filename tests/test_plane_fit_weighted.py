@@ -103,3 +103,18 @@ def test_online_refinement_moves_a_wrong_plane_toward_the_true_one():
     assert moved["moves"] >= 1 and off < 0.1 and ang < 3.0, moved
     # the paper's cascade ignores the parameter: no refinement, no summary entry
     assert "plane_refinement" not in track_detections(rig, wrong, as_raw(det), mode="cascade").summary
+
+
+def test_planes_auto_fits_offline_and_cascade_plus_refines_online():
+    rig = ring_rig([0, 120, 240])
+    det, _ = make_detections(rig, _walker_on_plane(), noise=1.0, seed=5)
+    true = Plane(np.zeros(3), np.array([1.0, 0.0, 0.0]))
+    focus = np.array([0.0, 0.0, 1.5])
+    auto = with_plane(simple_scene(), perturbed_plane(true, focus, 0.3, 10.0)).model_copy(update={"auto_planes": True})
+    res = track_detections(rig, auto, as_raw(det), mode="cascade+")
+    assert res.summary["plane_refinement"]["refits"] >= 1
+    # the refinement starts from the offline fit: it is already near the true plane
+    final = res.summary["plane_refinement"]
+    off, ang = plane_difference(Plane(np.array(final["point"]), np.array(final["normal"])), true, focus)
+    assert off < 0.1 and ang < 3.0
+    assert "plane_refinement" not in track_detections(rig, auto, as_raw(det), mode="cascade").summary

@@ -26,13 +26,12 @@ import numpy as np
 from ..geometry.plane import Plane
 from ..geometry.plane_fit import plane_difference
 from ..scene import Scene
-from ..tracking.plane_fit import fit_scene_planes, with_plane
+from ..tracking.plane_fit import REFINE_EVERY, fit_scene_planes, with_plane
 from ..tracking.offline import track_detections
 from .metrics import average_euclidean_distance
 
 __all__ = ["perturbed_plane", "plane_experiment", "plane_table", "plane_markdown"]
 
-REFINE_EVERY = 20  #: windows between the online refits of the experiment (the planes: auto default)
 
 
 def perturbed_plane(plane: Plane, at: np.ndarray, shift: float, turn_deg: float) -> Plane:

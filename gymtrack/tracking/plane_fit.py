@@ -35,9 +35,11 @@ from ..geometry.plane_fit import (PlaneFitResult, fit_apparatus_plane, fit_plane
 from ..scene import PlaneSpec, Scene, in_box
 from .types import TRIANGULATION, Target, Tracks3D, TrackResult
 
-__all__ = ["MIN_POINTS", "PlaneEstimator", "ScenePlaneFit", "fit_scene_planes", "with_plane", "resolve_auto_planes"]
+__all__ = ["MIN_POINTS", "REFINE_EVERY", "on_apparatus", "PlaneEstimator", "ScenePlaneFit", "fit_scene_planes",
+           "with_plane", "resolve_auto_planes"]
 
 MIN_POINTS = 30  #: points a fit needs (a second of a well-seen routine)
+REFINE_EVERY = 20  #: windows between cascade+'s online refits when planes: auto turns them on (.plane_refine)
 STANDING = (1.4, 2.1)  #: box heights (m) of a standing person, whose box bottom is on the floor
 
 
@@ -214,9 +216,10 @@ def with_plane(scene: Scene, plane: Plane) -> Scene:
 def resolve_auto_planes(rig: Rig, scene: Scene, detections: Detections,
                         track: Callable[..., TrackResult]) -> Scene:
     """``planes: auto``: the scene with the plane fitted to ``detections`` tracked by ``track``
-    (:func:`~.offline.track_detections`, given by the caller) in ``triangulation`` mode; any
-    other scene is returned as it is. Raises InputError when too few target points were
-    triangulated."""
+    (:func:`~.offline.track_detections`, given by the caller) in ``triangulation`` mode, and
+    ``params.refine_plane`` set (cascade+ refines it online); any other scene is returned as it
+    is. Warns when the direction was kept from the preset. Raises InputError when too few
+    target points were triangulated."""
     if not scene.auto_planes:
         return scene
     first = scene.model_copy(update={"auto_planes": False})  # (the first pass must not resolve again)
@@ -227,4 +230,7 @@ def resolve_auto_planes(rig: Rig, scene: Scene, detections: Detections,
     if not fit.plane.determined:
         warnings.warn(f"planes: auto: the plane's direction is kept from scene.yaml ({fit.plane.reason}); "
                       "only its offset was fitted", stacklevel=2)
-    return with_plane(scene, fit.plane.plane)
+    out = with_plane(scene, fit.plane.plane)
+    if not out.params.refine_plane:  # cascade+ goes on refining it online (other modes ignore the parameter)
+        out = out.model_copy(update={"params": out.params.model_copy(update={"refine_plane": REFINE_EVERY})})
+    return out

@@ -76,6 +76,10 @@ class PlaneRefiner:
                 while self._n - len(self._buf[0][0]) >= self.max_points:
                     self._n -= len(self._buf.popleft()[0])
 
+    def __len__(self) -> int:
+        """Points held (bounded by ``max_points`` plus one window's)."""
+        return self._n
+
     def due(self) -> bool:
         """A refit now: every ``every`` windows, and as soon as there are enough points for a first."""
         if self._n < MIN_POINTS:

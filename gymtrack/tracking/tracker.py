@@ -69,6 +69,7 @@ from .fusion import PlaneRayFusion
 from .linking import WindowLinker
 from .motion_link import COUNTS as MOTION_COUNTS, MotionLinker
 from .plane_fallback import plane_stage
+from .plane_fit import REFINE_EVERY
 from .plane_refine import PlaneRefiner
 from .reconstruct import cluster_members, opposite_clusters, outliers, triangulate_clusters
 from .single_view import IoUTracker
@@ -78,7 +79,6 @@ from .records import BoxTable, WindowRecords
 from .windows import build_window
 
 MODES = ("cascade", "triangulation", "plane", "cascade+")
-REFINE_EVERY = 20  #: windows between online plane refits when planes: auto turns refinement on
 ASSOCIATIONS = ("iou", "oracle")
 #: the per-window counters of :meth:`Tracker.summary` (what was used, made, dropped)
 COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulated", "segments_to_plane",
@@ -197,7 +197,7 @@ class Tracker:
     def state_size(self) -> int:
         """Number of stored rows/items over all internal state (for checking bounded memory)."""
         return (len(self.iou) + len(self.table) + len(self.records) + len(self.linker) + len(self.target)
-                + len(self.motion or ()))
+                + len(self.motion or ()) + len(self.refiner or ()))
 
     def summary(self) -> dict:
         """Counts and timings so far: frames with boxes, detections read / used / dropped per
