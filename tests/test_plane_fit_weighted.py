@@ -118,3 +118,16 @@ def test_planes_auto_fits_offline_and_cascade_plus_refines_online():
     off, ang = plane_difference(Plane(np.array(final["point"]), np.array(final["normal"])), true, focus)
     assert off < 0.1 and ang < 3.0
     assert "plane_refinement" not in track_detections(rig, auto, as_raw(det), mode="cascade").summary
+
+
+def test_the_batched_direction_scan_equals_the_one_direction_cost(rng):
+    from gymtrack.geometry.plane_fit import _costs, _offset_cost  # (same package's helpers, tested together)
+
+    xy = np.column_stack([rng.uniform(-2, 2, 500), rng.normal(0, 0.1, 500)])
+    xy[:50] = rng.uniform(-3, 3, (50, 2))  # outliers: the truncation matters
+    S = rng.uniform(0.0, 0.05, (500, 2, 2))
+    S = S @ S.transpose(0, 2, 1) + 0.001 * np.eye(2)
+    w = rng.uniform(0.2, 1.0, 500)
+    angles = np.radians(np.arange(0.0, 180.0, 7.0))
+    one = [_offset_cost(xy, S, np.array([np.cos(a), np.sin(a)]), 0.25, w)[0] for a in angles]
+    np.testing.assert_allclose(_costs(xy, S, angles, 0.25, w), one, rtol=1e-12, atol=1e-12)

@@ -194,13 +194,15 @@ def fit_apparatus_plane(points: np.ndarray, cov: np.ndarray | None = None, prese
         angles = a0 + np.radians(np.arange(-max_turn, max_turn + step_deg / 2, step_deg))
     else:
         angles = np.radians(np.arange(0.0, 180.0, step_deg))
-    best = None
-    for a in angles:
-        c = _offset_cost(xy, S, np.array([np.cos(a), np.sin(a)]), stray, w)
-        if best is None or c[0] < best[0]:
-            best = (c[0], a) + c[1:]
-    _, a, d, w, v, inl = best
+    # coarse to fine: the grid at 4 x step, then step about its best (the refit must stay cheap online)
+    coarse = angles[::4]
+    a = coarse[np.argmin(_costs(xy, S, coarse, stray, w))]
+    fine = a + np.radians(step_deg) * np.arange(-4, 5)
+    if preset is not None:
+        fine = fine[np.abs(fine - a0) <= np.radians(max_turn) + 1e-9]
+    a = fine[np.argmin(_costs(xy, S, fine, stray, w))]
     n = np.array([np.cos(a), np.sin(a)])
+    _, d, w, v, inl = _offset_cost(xy, S, n, stray, w)
     t = xy @ np.array([-n[1], n[0]])
     wi = w * inl
     tm = (wi @ t) / wi.sum()
@@ -233,6 +235,26 @@ def fit_apparatus_plane(points: np.ndarray, cov: np.ndarray | None = None, prese
     inliers[finite] = inl
     return PlaneFitResult(Plane(np.array([d * n[0], d * n[1], 0.0]), np.array([n[0], n[1], 0.0])), inliers, rms,
                           not reason, reason, sigma_deg, cells)
+
+
+def _costs(xy: np.ndarray, S: np.ndarray, angles: np.ndarray, stray: float, w: np.ndarray) -> np.ndarray:
+    """(A,) the cost of :func:`_offset_cost` for every direction ``angles`` (radians) at once
+    (arrays (A, N): each direction's points contiguous for the sort)."""
+    c, s_ = np.cos(angles)[:, None], np.sin(angles)[:, None]
+    v = stray ** 2 + S[:, 0, 0] * c ** 2 + 2 * S[:, 0, 1] * c * s_ + S[:, 1, 1] * s_ ** 2  # (A, N)
+    s = c * xy[:, 0] + s_ * xy[:, 1]
+    wv = w / v
+    o = np.argsort(s, axis=1)
+    rows = np.arange(len(angles))[:, None]
+    cw = np.cumsum(wv[rows, o], axis=1)
+    k = np.minimum((cw < 0.5 * cw[:, -1:]).sum(axis=1), s.shape[1] - 1)
+    d = s[np.arange(len(angles)), o[np.arange(len(angles)), k]][:, None]  # weighted medians
+    for _ in range(3):
+        m = wv * ((s - d) ** 2 < 9.0 * v)
+        tot = m.sum(axis=1, keepdims=True)
+        d = np.where(tot > 0, (m * s).sum(axis=1, keepdims=True) / np.where(tot > 0, tot, 1.0), d)
+    z = np.minimum((s - d) ** 2 / v, 9.0)
+    return (z + np.log(v)) @ w / w.sum()
 
 
 def _offset_cost(xy: np.ndarray, S: np.ndarray, n: np.ndarray, stray: float, w: np.ndarray):

@@ -13,7 +13,7 @@ where the data do not determine it only the offset moves. The plane moves when t
 differs by more than ``min_move`` metres or ``min_turn`` degrees at the focus.
 
 Trade: a small ``refine_plane`` follows the data sooner but refits more often (each refit is a
-scan of 120 directions over at most ``max_points`` points, about 10 ms); points are gathered
+scan of 40 directions, coarse to fine, over at most ``max_points`` points, ~10 ms); points are gathered
 from each window's first ``step`` frames only (each frame once), in a bounded buffer.
 ``summary()`` records how the plane moved (the tracker's summary, ``plane_refinement``).
 """
@@ -40,7 +40,7 @@ class PlaneRefiner:
     P: (C, 3, 4) projections (undistorted pixels, as the windows' boxes); plane: the starting plane.
     """
 
-    def __init__(self, P: np.ndarray, scene: Scene, plane: Plane, every: int, max_points: int = 3000,
+    def __init__(self, P: np.ndarray, scene: Scene, plane: Plane, every: int, max_points: int = 1500,
                  min_move: float = 0.02, min_turn: float = 0.5):
         p = scene.params
         self.P, self.every, self.step = P, every, p.step
