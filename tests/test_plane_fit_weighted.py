@@ -131,3 +131,22 @@ def test_the_batched_direction_scan_equals_the_one_direction_cost(rng):
     angles = np.radians(np.arange(0.0, 180.0, 7.0))
     one = [_offset_cost(xy, S, np.array([np.cos(a), np.sin(a)]), 0.25, w)[0] for a in angles]
     np.testing.assert_allclose(_costs(xy, S, angles, 0.25, w), one, rtol=1e-12, atol=1e-12)
+
+
+def test_scene_fit_from_two_opposite_views_with_a_cascade_pass():
+    from gymtrack.tracking.plane_fit import fit_scene_planes
+
+    rig = ring_rig([0, 180])  # n_cam = 2: only the opposite pair sees the gymnast
+    det, _ = make_detections(rig, _walker_on_plane(400), noise=1.0, seed=7)
+    true = Plane(np.zeros(3), np.array([1.0, 0.0, 0.0]))
+    focus = np.array([0.0, 0.0, 1.5])
+    wrong = with_plane(simple_scene(), perturbed_plane(true, focus, 0.3, 10.0))
+    first = track_detections(rig, wrong, as_raw(det), mode="triangulation")
+    casc = track_detections(rig, wrong, as_raw(det), mode="cascade")  # its points lie on the wrong plane
+    fit = fit_scene_planes(first, wrong, rig=rig, extra=casc)
+    off, ang = plane_difference(fit.plane.plane, true, focus)
+    assert off < 0.1 and ang < 3.0, (off, ang, fit.plane.reason)
+    # the cascade's points alone, taken as they are (on the wrong plane), would reproduce the wrong plane;
+    # re-triangulated from their boxes they find the true one
+    alone = fit_scene_planes(casc, wrong, rig=rig)
+    assert plane_difference(alone.plane.plane, true, focus)[0] < 0.1

@@ -35,8 +35,9 @@ def fit_plane(
     from gymtrack.tracking.offline import track_detections
 
     r = load_routine(routine)
+    extra = track_detections(r.rig, r.scene, r.detections, mode="cascade") if r.scene.planes else None
     fit = fit_scene_planes(track_detections(r.rig, r.scene, r.detections, mode="triangulation"), r.scene, min_views,
-                           rig=r.rig)
+                           rig=r.rig, extra=extra)
     console.print_json(json.dumps(fit.to_dict()))
     if fit.plane is None:
         console.print(f"[yellow]too few well-triangulated target points ({fit.n_target}) for a plane[/]")
@@ -58,6 +59,8 @@ def plane_bench(
     out: Optional[Path] = typer.Option(None, "--out", "-o", help="write the rows as JSON here"),
     markdown: Optional[Path] = typer.Option(None, "--markdown", help="write the per apparatus x n_cam table here"),
     refine_every: int = typer.Option(20, "--refine-every", min=1, help="windows between the online refits (cascade+)"),
+    fit_pass: str = typer.Option("both", "--fit-pass", help="first pass(es) the fit reads: triangulation | cascade "
+                                 "(with the wrong plane) | both"),
 ) -> None:
     """The wrong-plane experiment: target AED with the true, shifted/turned, fitted and online-refined planes."""
     import numpy as np
@@ -71,7 +74,8 @@ def plane_bench(
     for spec in read_suite(suite):
         r = load_routine(spec.path)
         gt = load_ground_truth(spec.path, r.rig.names, image_size=np.array([c.size for c in r.rig], dtype=np.float64))
-        row = {"routine": spec.name, "apparatus": spec.apparatus, "n_cam": spec.n_cam, **plane_experiment(r, gt, shift, turn, refine_every=refine_every)}
+        row = {"routine": spec.name, "apparatus": spec.apparatus, "n_cam": spec.n_cam, **plane_experiment(r, gt, shift, turn, refine_every=refine_every,
+                                                                                      fit_pass=fit_pass)}
         rows.append(row)
         console.print(f"{spec.name}: AED true {row['aed_true']:.3f} wrong {row['aed_wrong']:.3f} fitted "
                       f"{row['aed_fitted']:.3f} m; fitted plane {row['offset_m']:.3f} m, {row['angle_deg']:.2f} deg off"

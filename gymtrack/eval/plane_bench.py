@@ -45,10 +45,13 @@ def perturbed_plane(plane: Plane, at: np.ndarray, shift: float, turn_deg: float)
 
 
 def plane_experiment(routine, gt, shift: float = 0.3, turn_deg: float = 10.0, mode: str = "cascade",
-                     refine_every: int = REFINE_EVERY) -> dict:
+                     refine_every: int = REFINE_EVERY, fit_pass: str = "both") -> dict:
     """One routine (a loaded :class:`~gymtrack.formats.routine.Routine`) and its ground truth
     (:class:`~gymtrack.formats.ground_truth.GroundTruth`): AED with the true, wrong and fitted
-    planes, and the fitted plane's offset (m) and angle (deg) from the true one."""
+    planes, and the fitted plane's offset (m) and angle (deg) from the true one. ``fit_pass``:
+    the first pass the fit reads, ``triangulation`` (needs no plane), ``cascade`` with the wrong
+    plane (its two-view target frames re-triangulated from their boxes) or ``both`` (what
+    ``planes: auto`` does: the cascade's target frames the triangulation pass lacks added)."""
     rig, scene, det = routine.rig, routine.scene, routine.detections
     true = Plane.from_spec(scene.planes[0])
     focus = scene.focus_point
@@ -64,7 +67,11 @@ def plane_experiment(routine, gt, shift: float = 0.3, turn_deg: float = 10.0, mo
 
     wrong = with_plane(scene, perturbed_plane(true, focus, shift, turn_deg))
     # the wrong plane is the preset: the fit's starting guess, kept where the data do not fix the direction
-    fit = fit_scene_planes(track_detections(rig, scene, det, mode="triangulation"), wrong, rig=rig)
+    if fit_pass not in ("triangulation", "cascade", "both"):
+        raise ValueError(f"fit_pass must be triangulation, cascade or both, got {fit_pass!r}")
+    first = track_detections(rig, wrong, det, mode="cascade" if fit_pass == "cascade" else "triangulation")
+    extra = track_detections(rig, wrong, det, mode="cascade") if fit_pass == "both" else None
+    fit = fit_scene_planes(first, wrong, rig=rig, extra=extra)
     out = {"aed_true": aed(scene), "aed_wrong": aed(wrong), "target_points": fit.n_target}
     online = wrong.model_copy(update={"params": wrong.params.model_copy(update={"refine_plane": refine_every})})
     runs: list = []

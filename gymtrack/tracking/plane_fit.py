@@ -1,10 +1,12 @@
 """The apparatus plane and the floor estimated from the data (beyond the paper; ``planes: auto``).
 
 Paper: Section III-C's vertical plane (Eq. 7) is given by hand. Here it is fitted from the
-target gymnast's well-triangulated centres: a first pass of the tracker in ``triangulation``
-mode (which needs no plane) identifies the target (Eq. 13) and triangulates it (Eq. 3); its
-points of two or more views feed :func:`gymtrack.geometry.plane_fit.fit_apparatus_plane`, each
-weighted by its triangulation covariance, computed from the views whose boxes made it (an
+target gymnast's triangulated centres: a first pass of the tracker in ``triangulation`` mode
+(which needs no plane) identifies the target (Eq. 13) and triangulates it (Eq. 3); with a
+preset plane, a ``cascade`` pass adds the target frames the first lacks, its two-view frames
+re-triangulated from their boxes. The target's points on the apparatus, of two or more views,
+feed :func:`gymtrack.geometry.plane_fit.fit_apparatus_plane`, each weighted by its
+triangulation covariance, computed from the views whose boxes made it (an
 opposite pair's point counts for little along the cameras' axis, the plane's normal, so the
 two-view case of ``n_cam = 2`` is still determined across it); where the data do not determine
 the direction (the pommel horse, a gymnast who hardly moves along the plane) the preset's
@@ -33,7 +35,8 @@ from ..geometry.plane import Plane
 from ..geometry.plane_fit import (PlaneFitResult, fit_apparatus_plane, fit_plane, fit_vertical_plane, plane_difference,
                                   triangulation_covariances)
 from ..scene import PlaneSpec, Scene, in_box
-from .types import TRIANGULATION, Target, Tracks3D, TrackResult
+from ..geometry.triangulation import triangulate_rig
+from .types import PLANE, TRIANGULATION, Target, Tracks3D, TrackResult
 
 __all__ = ["MIN_POINTS", "REFINE_EVERY", "on_apparatus", "PlaneEstimator", "ScenePlaneFit", "fit_scene_planes",
            "with_plane", "resolve_auto_planes"]
@@ -80,25 +83,44 @@ class PlaneEstimator:
 
     def add(self, tracks: Tracks3D, target: Target, boxes: Detections | None = None) -> None:
         """Track points (final) and the target's frames of the same stretch of the stream;
-        ``boxes``: the tracks' 2D boxes (``track_id`` = the 3D track), for the covariances."""
+        ``boxes``: the tracks' 2D boxes (``track_id`` = the 3D track), for the covariances and,
+        with a rig, to triangulate (Eq. 3) the target's points the plane stage made from two or
+        more views (a cascade pass: its opposite pairs), so that a first pass with the preset
+        plane gives its two-view frames too."""
         if not len(tracks):
             return
         tri = tracks.source == TRIANGULATION
         key = tracks.frame * (1 << 32) + tracks.track_id
         is_target = np.isin(key, target.frame * (1 << 32) + target.track_id)
-        t = tri & is_target
-        # the plane holds while the gymnast is on the apparatus (used when there are enough such points)
-        on = np.ones(int(t.sum())) if self.on_apparatus is None else self.on_apparatus(tracks.xyz[t], tracks.bottom_z[t])
-        self._target.append(np.column_stack([tracks.xyz[t], tracks.n_views[t], on]))
+        t = is_target & (tri | ((tracks.source == PLANE) & (tracks.n_views >= 2)))
+        xyz, bottom, nv = tracks.xyz[t], tracks.bottom_z[t], tracks.n_views[t]
+        cov = None
         if self.rig is not None and boxes is not None:
-            self._cov.append(self._covariances(tracks.frame[t], tracks.track_id[t], tracks.xyz[t], boxes))
+            views, box = self._views(tracks.frame[t], tracks.track_id[t], boxes)
+            redo = tracks.source[t] == PLANE
+            if redo.any():  # the plane put these points there: triangulate their box centres and bottoms
+                xyz, bottom = xyz.copy(), bottom.copy()
+                c, b = box[redo, :, :2], box[redo, :, :2] + np.stack([0 * box[redo, :, 3], box[redo, :, 3] / 2], -1)
+                xyz[redo] = triangulate_rig(self.rig, c, views[redo])[0]
+                bottom[redo] = triangulate_rig(self.rig, b, views[redo])[0][:, 2]
+                nv = np.where(redo, views.sum(axis=1), nv)
+            sigma = np.where(views, self.pixel_sigma + self.box_sigma * np.nan_to_num(box[..., 3]), 1.0)
+            cov = triangulation_covariances(self.rig.projections, xyz, views, sigma)
+        elif (tracks.source[t] == PLANE).any():  # without boxes, plane points are not measurements
+            keep = tracks.source[t] == TRIANGULATION
+            xyz, bottom, nv = xyz[keep], bottom[keep], nv[keep]
+        # the plane holds while the gymnast is on the apparatus (used when there are enough such points)
+        on = np.ones(len(xyz)) if self.on_apparatus is None else self.on_apparatus(xyz, bottom)
+        self._target.append(np.column_stack([xyz, nv, on]))
+        if cov is not None:
+            self._cov.append(cov)
         height = tracks.top_z - tracks.bottom_z
         stand = tri & ~is_target & (height >= STANDING[0]) & (height <= STANDING[1])
         self._feet.append(np.column_stack([tracks.xyz[stand, :2], tracks.bottom_z[stand]]))
 
-    def _covariances(self, frame: np.ndarray, track: np.ndarray, xyz: np.ndarray, boxes: Detections) -> np.ndarray:
-        """(n, 3, 3) triangulation covariances of the points from the views whose boxes made them
-        (pixel noise ``pixel_sigma`` + ``box_sigma`` x box height, as cascade+ models it)."""
+    def _views(self, frame: np.ndarray, track: np.ndarray, boxes: Detections) -> tuple[np.ndarray, np.ndarray]:
+        """The views (n, C) bool whose boxes made each (frame, track) point, and the boxes (n, C, 4)
+        (raw pixels, NaN where the view has none)."""
         key = frame * (1 << 32) + track
         order = np.argsort(key)
         bkey = boxes.frame.astype(np.int64) * (1 << 32) + boxes.track_id
@@ -107,10 +129,10 @@ class PlaneEstimator:
         row = order[pos[hit]]
         cam = boxes.camera[hit].astype(np.int64)
         views = np.zeros((len(key), len(self.rig)), bool)
-        sigma = np.ones((len(key), len(self.rig)))
+        box = np.full((len(key), len(self.rig), 4), np.nan)
         views[row, cam] = True
-        sigma[row, cam] = self.pixel_sigma + self.box_sigma * boxes.box[hit, 3]
-        return triangulation_covariances(self.rig.projections, xyz, views, sigma)
+        box[row, cam] = boxes.box[hit]
+        return views, box
 
     @property
     def n_target(self) -> int:
@@ -186,14 +208,22 @@ class ScenePlaneFit:
         }
 
 
-def fit_scene_planes(result: TrackResult, scene: Scene, min_views: int = 3, rig: Rig | None = None) -> ScenePlaneFit:
+def fit_scene_planes(result: TrackResult, scene: Scene, min_views: int = 3, rig: Rig | None = None,
+                     extra: TrackResult | None = None) -> ScenePlaneFit:
     """The apparatus plane and the floor fitted to a ``triangulation``-mode result of a routine
     (its target and track points), compared with the scene's first plane (also the preset
     direction kept when the data do not determine one). With the ``rig``: the covariance-
-    weighted fit (:class:`PlaneEstimator`)."""
+    weighted fit (:class:`PlaneEstimator`); ``extra``: a cascade pass with the preset plane,
+    whose target frames the first lacks are added (its two-view frames re-triangulated): on the
+    suite's n_cam = 2 routines it found the beam's plane to 1 cm where the first pass alone
+    was 4 cm off, and alone it lost the vault (whose cascade with a wrong plane loses the target)."""
     preset = Plane.from_spec(scene.planes[0]) if scene.planes else None
     est = PlaneEstimator(min_views, rig=rig, scene=scene, preset=preset)
     est.add(result.tracks, result.target, result.boxes)
+    if extra is not None:
+        t = extra.target
+        new = ~np.isin(t.frame, result.target.frame)
+        est.add(extra.tracks, Target(t.frame[new], t.track_id[new], t.xyz[new], t.source[new]), extra.boxes)
     plane, floor = est.fit()
     focus = scene.focus_point
     offset = angle = float("nan")
@@ -216,14 +246,16 @@ def with_plane(scene: Scene, plane: Plane) -> Scene:
 def resolve_auto_planes(rig: Rig, scene: Scene, detections: Detections,
                         track: Callable[..., TrackResult]) -> Scene:
     """``planes: auto``: the scene with the plane fitted to ``detections`` tracked by ``track``
-    (:func:`~.offline.track_detections`, given by the caller) in ``triangulation`` mode, and
+    (:func:`~.offline.track_detections`, given by the caller) in ``triangulation`` mode (and, with
+    a preset plane, ``cascade`` mode: :func:`fit_scene_planes`'s ``extra``), and
     ``params.refine_plane`` set (cascade+ refines it online); any other scene is returned as it
     is. Warns when the direction was kept from the preset. Raises InputError when too few
     target points were triangulated."""
     if not scene.auto_planes:
         return scene
     first = scene.model_copy(update={"auto_planes": False})  # (the first pass must not resolve again)
-    fit = fit_scene_planes(track(rig, first, detections, mode="triangulation"), scene, rig=rig)
+    extra = track(rig, first, detections, mode="cascade") if scene.planes else None  # the preset's cascade
+    fit = fit_scene_planes(track(rig, first, detections, mode="triangulation"), scene, rig=rig, extra=extra)
     if fit.plane is None:
         raise InputError(f"planes: auto: only {fit.n_target} well-triangulated target points, a fit needs "
                          f"{MIN_POINTS}; give the plane in scene.yaml", field="planes")
