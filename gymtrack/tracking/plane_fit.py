@@ -144,17 +144,21 @@ class PlaneEstimator:
         return self.rig is not None and len(self._cov) == len(self._target) and len(self._cov) > 0
 
     def target_points(self) -> np.ndarray:
-        """(n, 3) the target points a fit uses: weighted, those of >= 2 views on the apparatus
-        (:func:`on_apparatus`; all when fewer than :data:`MIN_POINTS`); else those of >=
+        """(n, 3) the target points a fit uses: weighted, those of >= ``min_views`` views on the
+        apparatus (:func:`on_apparatus`), of >= 2 views when there are fewer than
+        :data:`MIN_POINTS` such (then all, on the apparatus or not, when still fewer); else those of >=
         ``min_views`` views, or of >= 2 when there are fewer than :data:`MIN_POINTS` of them."""
         return self._selected()[0]
 
     def _selected(self) -> tuple[np.ndarray, np.ndarray | None]:
         pts = np.concatenate(self._target) if self._target else np.zeros((0, 5))
         if self.weighted:
-            good = pts[:, 3] >= 2
-            if (good & (pts[:, 4] > 0)).sum() >= MIN_POINTS:  # else (a vault's short flight) all of them
-                good &= pts[:, 4] > 0
+            on = pts[:, 4] > 0
+            good = pts[:, 3] >= self.min_views  # well triangulated: used alone when there are enough
+            if (good & on).sum() < MIN_POINTS:  # (n_cam = 2: the opposite pair's points, weighted)
+                good = pts[:, 3] >= 2
+            if (good & on).sum() >= MIN_POINTS:  # else (a vault's short flight) all of them
+                good &= on
             return pts[good, :3], np.concatenate(self._cov)[good]
         good = pts[:, 3] >= self.min_views
         if good.sum() < MIN_POINTS:
