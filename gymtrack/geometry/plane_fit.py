@@ -220,7 +220,7 @@ def fit_apparatus_plane(points: np.ndarray, cov: np.ndarray | None = None, prese
         reason = f"the points cover {cells} cells of {cell} m, under {min_cells}"
     elif preset is not None and abs(np.degrees(a - a0)) > max_turn - 2 * step_deg:
         reason = (f"the best direction lies at the edge of the {max_turn:g} deg searched about the preset's: "
-                  "the points favour another plane (a gymnast circling the apparatus)")
+                  "the points favour another plane (as when the gymnast circles the apparatus)")
     elif along < min_ratio * across:
         reason = (f"the points are not elongated along a vertical plane (spread {along:.2f} m along, "
                   f"{across:.2f} m across beyond their noise)")
