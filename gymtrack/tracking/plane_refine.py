@@ -14,7 +14,8 @@ differs by more than ``min_move`` metres or ``min_turn`` degrees at the focus.
 
 Trade: a small ``refine_plane`` follows the data sooner but refits more often (each refit is a
 scan of 40 directions, coarse to fine, over at most ``max_points`` points, ~10 ms); points are gathered
-from each window's first ``step`` frames only (each frame once), in a bounded buffer.
+from every other window (windows overlap by half: each frame once, at half the cost), in a
+bounded buffer.
 ``summary()`` records how the plane moved (the tracker's summary, ``plane_refinement``).
 """
 
@@ -58,23 +59,23 @@ class PlaneRefiner:
     def observe(self, segs: WindowTracklets, members: np.ndarray) -> None:
         """One window: ``members`` (M, C) clusters of >= 2 views (indices into ``segs``)."""
         self.windows += 1
-        if len(members):
-            tri = triangulate_clusters(segs, members, self.P)
-            w = slice(0, self.step)  # the first step frames: windows overlap, each frame counts once
-            xyz, bottom = tri.xyz[:, w], tri.bottom_z[:, w]
-            ok = tri.valid[:, w] & (tri.n_views[:, w] >= 2)
-            ok[ok] = self.on(xyz[ok], bottom[ok])
-            if ok.any():
-                m, f = np.nonzero(ok)
-                seg = members[m]  # (n, C)
-                has = seg >= 0
-                segc = np.maximum(seg, 0)
-                views = has & segs.observed[segc, f[:, None]]
-                sigma = self.pixel_sigma + self.box_sigma * segs.box[segc, f[:, None], 3]
-                self._buf.append((xyz[m, f], views, np.where(views, sigma, 1.0)))
-                self._n += len(m)
-                while self._n - len(self._buf[0][0]) >= self.max_points:
-                    self._n -= len(self._buf.popleft()[0])
+        if self.windows % 2 or not len(members):  # every other window: they cover the frames once, at half the cost
+            return
+        tri = triangulate_clusters(segs, members, self.P)
+        xyz, bottom = tri.xyz, tri.bottom_z
+        ok = tri.valid & (tri.n_views >= 2)
+        ok[ok] = self.on(xyz[ok], bottom[ok])
+        if not ok.any():
+            return
+        m, f = np.nonzero(ok)
+        seg = members[m]  # (n, C)
+        segc = np.maximum(seg, 0)
+        views = (seg >= 0) & segs.observed[segc, f[:, None]]
+        sigma = self.pixel_sigma + self.box_sigma * segs.box[segc, f[:, None], 3]
+        self._buf.append((xyz[m, f], views, np.where(views, sigma, 1.0)))
+        self._n += len(m)
+        while self._n - len(self._buf[0][0]) >= self.max_points:
+            self._n -= len(self._buf.popleft()[0])
 
     def __len__(self) -> int:
         """Points held (bounded by ``max_points`` plus one window's)."""
