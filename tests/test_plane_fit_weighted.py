@@ -150,3 +150,15 @@ def test_scene_fit_from_two_opposite_views_with_a_cascade_pass():
     # re-triangulated from their boxes they find the true one
     alone = fit_scene_planes(casc, wrong, rig=rig)
     assert plane_difference(alone.plane.plane, true, focus)[0] < 0.1
+
+
+def test_online_refinement_on_a_simulated_routine_moves_toward_the_true_plane():
+    from gymtrack.simulate import simulate_routine
+
+    sim = simulate_routine("balance_beam", n_cam=4, seed=0, seconds=10)
+    true, focus = Plane.from_spec(sim.scene.planes[0]), sim.scene.focus_point
+    wrong = with_plane(sim.scene, perturbed_plane(true, focus, 0.3, 10.0))
+    wrong = wrong.model_copy(update={"params": wrong.params.model_copy(update={"refine_plane": 4})})
+    moved = track_detections(sim.rig, wrong, sim.detections, mode="cascade+").summary["plane_refinement"]
+    off, ang = plane_difference(Plane(np.array(moved["point"]), np.array(moved["normal"])), true, focus)
+    assert moved["moves"] >= 1 and off < 0.25 and ang < 7.0, (off, ang)  # from 0.3 m and 10 deg
