@@ -1,11 +1,12 @@
 """Online refinement of the apparatus plane from the tracker's own points (beyond the paper: issue 12).
 
 Paper: Section III-C's vertical plane (Eq. 7) is fixed before tracking. In ``cascade+`` with
-``params.refine_plane`` > 0 (or ``planes: auto``) the tracker refits it as it goes: every
-window, the clusters of two or more views (opposite pairs included: the plane stage still
-takes those, but here they are triangulated too, Eq. 3) give points, kept when they are on
-the apparatus (:func:`~.plane_fit.on_apparatus`: inside ``S_perf``, the body's bottom above
-``h_bot``, so coaches and people standing by do not count). Every ``refine_plane`` windows
+``params.refine_plane`` > 0 (or ``planes: auto``) the tracker refits it as it goes: the
+window's triangulated clusters that passed the outlier and ghost tests, and its opposite pairs
+(the plane stage still takes those; here they are triangulated too, Eq. 3) give points, kept
+when they are on the apparatus (:func:`~.plane_fit.on_apparatus`: inside ``S_perf``, the
+body's bottom above ``h_bot``, and its top above ``h_top``: Eq. 13's test, so that coaches and
+people standing by do not count). Every ``refine_plane`` windows
 :func:`~gymtrack.geometry.plane_fit.fit_apparatus_plane` refits the plane from the last
 ``max_points`` of them, each weighted by its triangulation covariance (an opposite pair's point
 counts for little along the cameras' axis), its direction searched about the starting plane's:
@@ -30,7 +31,7 @@ from ..geometry.plane_fit import fit_apparatus_plane, plane_difference, triangul
 from ..scene import Scene
 from .plane_fit import MIN_POINTS, on_apparatus
 from .reconstruct import triangulate_clusters
-from .types import WindowTracklets
+from .types import WindowTracklets, WindowTracklets3D
 
 __all__ = ["PlaneRefiner"]
 
@@ -48,6 +49,7 @@ class PlaneRefiner:
         self.initial = self.plane = plane
         self.focus = scene.focus_point
         self.on = on_apparatus(scene)
+        self.h_top = scene.target.h_top
         self.pixel_sigma, self.box_sigma, self.stray = p.pixel_sigma, p.box_sigma, p.plane_sigma
         self.min_move, self.min_turn = min_move, min_turn
         self._buf: deque = deque()  # (xyz (n, 3), views (n, C), sigma (n, C)) per window
@@ -56,19 +58,28 @@ class PlaneRefiner:
         self.windows = self.refits = self.moves = self.undetermined = 0
         self.history: list[dict] = []
 
-    def observe(self, segs: WindowTracklets, members: np.ndarray) -> None:
-        """One window: ``members`` (M, C) clusters of >= 2 views (indices into ``segs``)."""
+    def observe(self, segs: WindowTracklets, tri: WindowTracklets3D, pairs: np.ndarray) -> None:
+        """One window: ``tri`` its triangulated clusters that passed the outlier and ghost tests,
+        ``pairs`` (M, C) its clusters of >= 2 views the cascade sends to the plane (opposite
+        pairs; indices into ``segs``), triangulated here for the plane only."""
         self.windows += 1
-        if self.windows % 2 or not len(members):  # every other window: they cover the frames once, at half the cost
+        if self.windows % 2:  # every other window: they cover the frames once, at half the cost
             return
-        tri = triangulate_clusters(segs, members, self.P)
+        if len(tri):
+            self._take(segs, tri)
+        if len(pairs):
+            self._take(segs, triangulate_clusters(segs, pairs, self.P))
+
+    def _take(self, segs: WindowTracklets, tri: WindowTracklets3D) -> None:
         xyz, bottom = tri.xyz, tri.bottom_z
-        ok = tri.valid & (tri.n_views >= 2)
+        # Eq. 13's test as well (the body's top above h_top): without the target's identity, people
+        # standing by and ghosts low in S_perf must not pull the plane
+        ok = tri.valid & (tri.n_views >= 2) & (tri.top_z >= self.h_top)
         ok[ok] = self.on(xyz[ok], bottom[ok])
         if not ok.any():
             return
         m, f = np.nonzero(ok)
-        seg = members[m]  # (n, C)
+        seg = tri.members[m]  # (n, C)
         segc = np.maximum(seg, 0)
         views = (seg >= 0) & segs.observed[segc, f[:, None]]
         sigma = self.pixel_sigma + self.box_sigma * segs.box[segc, f[:, None], 3]

@@ -346,8 +346,6 @@ class Tracker:
             multi &= ~fallback
         else:
             self.counts["segments_dropped_single"] += int(np.count_nonzero(~multi))
-        if self.refiner is not None:  # cascade+: every cluster of >= 2 views, opposite pairs too, feeds the plane
-            self.refiner.observe(segs, members[(members >= 0).sum(axis=1) >= 2])
         tri = triangulate_clusters(segs, members[multi], self.P)
         tri = tri if fused is None else WindowTracklets3D.concat([tri, fused])
         bad = outliers(tri.xyz, tri.valid, self.space, p.max_speed)
@@ -356,6 +354,8 @@ class Tracker:
             tri = tri.subset(~bad)
         if self.plus:  # the floor's ghost test; a ghost's segments may go to the floor only
             tri, self._floor_only = drop_floor_ghosts(tri, segs, self.rig.arrays, self.plane_arrays, p, self.scene, self.counts)
+        if self.refiner is not None:  # the plane's points: what passed the tests, and the opposite pairs
+            self.refiner.observe(segs, tri, members[fallback & ((members >= 0).sum(axis=1) >= 2)])
         self.counts["clusters_triangulated"] += len(tri)
         return tri, to_plane
 
