@@ -6,7 +6,7 @@ second for the cascade in one process, and the cascade at least 0.9 x as fast as
 
 Usage::
 
-    python benchmarks/bench_tracker.py [--seconds 60] [--apparatus uneven_bars] [--repeat 3] [--profile]
+    python benchmarks/bench_tracker.py [--seconds 60] [--apparatus uneven_bars] [--repeat 3] [--profile] [--refine-plane 20]
 
 A four-camera routine is simulated once (``gymtrack.simulate``; every view sees 5-20 people:
 gymnast, coaches, judges, other gymnasts, spectators, plus false positives); both modes then
@@ -54,10 +54,14 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--profile", action="store_true")
+    ap.add_argument("--refine-plane", type=int, default=0,
+                    help="cascade+ with params.refine_plane (windows between online plane refits; 0: off)")
     args = ap.parse_args()
 
     sim = simulate_routine(args.apparatus, n_cam=4, seed=args.seed, seconds=args.seconds)
     det, rig, scene = sim.detections, sim.rig, sim.scene
+    if args.refine_plane:  # only cascade+ reads it
+        scene = scene.model_copy(update={"params": scene.params.model_copy(update={"refine_plane": args.refine_plane})})
     mean, lo, hi = boxes_per_view(det, len(rig))
     frames = sim.n_frames
     print(f"routine: {args.apparatus}, {len(rig)} cameras, {frames} frames, {len(det)} boxes, "

@@ -93,6 +93,8 @@ class Params(_Strict):
                                "follows the plane like the paper, larger follows the rays")
     pixel_sigma: float = Field(2.0, gt=0, description="pixels: the detector's box-centre noise (cascade+)")
     box_sigma: float = Field(0.03, ge=0, description="box-centre noise as a fraction of the box height (cascade+)")
+    refine_plane: int = Field(0, ge=0, description="cascade+ only: windows between online refits of the apparatus "
+                              "plane from the tracker's own points (0: off; planes: auto turns it on at 20)")
 
     @model_validator(mode="after")
     def _window_fits(self) -> "Params":

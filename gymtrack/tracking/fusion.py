@@ -91,7 +91,7 @@ PLANE_GATE = 9.0
 #: chi-square (2 degrees of freedom) above which a frame's two rays and the plane contradict
 #: each other (p = 0.001): not one body on the plane
 CHI2_GATE = 13.8
-#: the counters reported only when the fusion is on (the others are in the tracker's COUNTS)
+#: the counters reported only when the fusion is on (the others are in :data:`.summary.COUNTS`)
 COUNTS = ("fused_inconsistent",)
 _TINY = 1e-9  # information of a direction no ray constrains (keeps A invertible)
 

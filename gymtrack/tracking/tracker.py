@@ -26,22 +26,18 @@ frames), more only at the end of a target segment (see :class:`~.smoothing.Targe
 Memory is bounded on an endless stream (what is held: :meth:`Tracker.state_size`).
 
 Beyond the paper (README, "Beyond the paper"): lost tracks re-link across ``relink_frames``;
-segments Eq. 2 separates are never fused on the plane; a view left alone may continue, on the
-plane, the 3D track its 2D track belonged to (or, for a 2D track new in the window, the track
-it links to), linked after the candidates of several views; the target back-fill.
+segments Eq. 2 separates are never fused on the plane; a view left alone may continue its 2D
+track's 3D track on the plane; the target back-fill.
 
 Modes (the paper's ablation, Table 4): ``cascade`` (the method), ``triangulation`` (no plane
-fallback; single-tracklet clusters are dropped and opposite pairs triangulated -- close to
-UniMMT), ``plane`` (every segment goes to the plane stage); beyond the paper, ``cascade+``: the
-cascade with the floor hypothesis (:mod:`.floor`), a view's 2D tracks the IoU tracker broke joined
-by 3D motion (:mod:`.motion_link`), at low frame rates a per-view tracker predicting image motion
-(:mod:`.single_view_motion`) and end boxes held only ``HOLD_SECONDS``, duplicates left out of the
-reported tracks (:mod:`.exclusion`), and with ``params.fuse_plane`` two-view clusters
-fused with the plane by their uncertainty (:mod:`.fusion`: non-opposite pairs instead of Eq. 3,
-the plane stage's two-view tracklets instead of Eq. 9). ``association="oracle"``
-replaces the IoU tracker and Algorithm 1 by ground-truth ids carried in ``Detections.track_id``
-(>= 0; -1 = a false positive, dropped and counted): the limit better association could reach. The
-plane stage then still applies its own Eq. 8 test, within each ground-truth person only.
+fallback; single-tracklet clusters dropped, opposite pairs triangulated -- close to UniMMT),
+``plane`` (every segment to the plane stage); beyond the paper (issue 12), ``cascade+``: the
+floor hypothesis (:mod:`.floor`), 2D tracks joined by 3D motion (:mod:`.motion_link`) and, at low
+frame rates, by image motion (:mod:`.single_view_motion`), duplicates left out (:mod:`.exclusion`),
+opt-in ray/plane fusion (:mod:`.fusion`) and online plane refinement (:mod:`.plane_refine`).
+``association="oracle"`` replaces the IoU tracker and Algorithm 1 by ground-truth ids in
+``Detections.track_id`` (>= 0; -1 = a false positive, dropped and counted): the limit better
+association could reach (the plane stage still applies Eq. 8 within each person).
 ``planes: auto``: :mod:`.plane_fit`.
 
 Speed (``benchmarks/bench_tracker.py``): stages work on whole windows of columns; skips are
@@ -69,33 +65,27 @@ from ._kernels.single_view import frame_rows_check
 from .clustering import complete_linkage, tracklet_distances
 from .floor import continuation_only, drop_floor_ghosts, floor_split, solo_inside
 from .exclusion import suppress_duplicates
-from .fusion import COUNTS as FUSION_COUNTS, PlaneRayFusion
+from .fusion import PlaneRayFusion
 from .linking import WindowLinker
-from .motion_link import COUNTS as MOTION_COUNTS, MotionLinker
+from .motion_link import MotionLinker
 from .plane_fallback import plane_stage
+from .plane_fit import REFINE_EVERY
+from .plane_refine import PlaneRefiner
 from .reconstruct import cluster_members, opposite_clusters, outliers, outliers_by_place, triangulate_clusters
 from .single_view import IoUTracker
-from .single_view_motion import COUNTS as VIEW_COUNTS, MotionIoUTracker, needs_motion
+from .single_view_motion import MotionIoUTracker, needs_motion
 from .target import TargetStage
 from .types import TrackerOutput, Tracks3D, WindowTracklets, WindowTracklets3D
 from .records import BoxTable, WindowRecords
+from .summary import STAGES, tracker_summary
 from .windows import build_window
 
-MODES = ("cascade", "triangulation", "plane", "cascade+")
-ASSOCIATIONS = ("iou", "oracle")
-#: the per-window counters of :meth:`Tracker.summary` (what was used, made, dropped)
-COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulated", "segments_to_plane",
-          "plane_tracklets", "segments_dropped_single", "tracklets_outliers", "links", "relinks", "plane_single_view",
-          "plane_single_view_unlinked", "floor_tracklets", "segments_to_floor", "floor_ghosts",
-          "segments_dropped_ghost", "plane_single_view_outside", "links_2d", "fused_plane", "fused_triangulated",
-          "fused_to_plane_stage")
 #: cascade+: seconds a segment's end box is held beyond its last observation (windows); a walker
 #: moves ~0.3 m in that time, so at 2 fps no box is held (held boxes there were 1.4 m stale ghosts)
 HOLD_SECONDS = 0.2
-#: cascade+'s own counters, in its summary only (so the other modes' outputs stay as they were)
-PLUS_COUNTS = MOTION_COUNTS + VIEW_COUNTS + ("points_suppressed", "floor_single_view", "floor_ghosts_confirmed",
-                                            "links_older")
-STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
+
+MODES = ("cascade", "triangulation", "plane", "cascade+")
+ASSOCIATIONS = ("iou", "oracle")
 
 
 class Tracker:
@@ -152,6 +142,9 @@ class Tracker:
         # frames a segment's end box is held (windows): max_age; cascade+: HOLD_SECONDS (30 fps: max_age)
         self.hold = min(p.max_age, int(HOLD_SECONDS * scene.fps)) if self.plus else p.max_age
         self.target = TargetStage(rig, scene)
+        # cascade+: the apparatus plane refined online (.plane_refine); planes: auto turns it on
+        every = p.refine_plane or (REFINE_EVERY if scene.auto_planes else 0)
+        self.refiner = PlaneRefiner(self.P, scene, self.planes[0], every) if self.plus and every else None
         # stream position
         self.first_frame: int | None = None
         self.last_frame: int | None = None
@@ -209,38 +202,11 @@ class Tracker:
     def state_size(self) -> int:
         """Number of stored rows/items over all internal state (for checking bounded memory)."""
         return (len(self.iou) + len(self.table) + len(self.records) + len(self.linker) + len(self.target)
-                + len(self.motion or ()))
+                + len(self.motion or ()) + len(self.refiner or ()))
 
     def summary(self) -> dict:
-        """Counts and timings so far: frames with boxes, detections read / used / dropped per
-        camera, tracks, target frames and switches, seconds per stage, frames (with boxes) per second."""
-        frames = self.frames
-        total = sum(self.timings.values())
-        names = self.names
-        s = {
-            "mode": self.mode,
-            "association": self.association,
-            "frames": frames,
-            "first_frame": self.first_frame,
-            "last_frame": self.last_frame,
-            "detections_read": {n: int(v) for n, v in zip(names, self.read)},
-            "detections_used": {n: int(v) for n, v in zip(names, self.used)},
-            "tracks": int(self.linker.next_track_id),  # every track has at least one point
-            "target_frames": int(self.target.frames),
-            "target_switches": int(self.target.switches),
-            "target_identifications": int(self.target.identifications),
-            **{k: int(self.counts[k]) for k in COUNTS + (PLUS_COUNTS if self.plus else ())
-               + (FUSION_COUNTS if self.fusion is not None else ())},
-            "seconds": {k: round(v, 6) for k, v in self.timings.items()},
-            "seconds_total": round(total, 6),
-            "fps": round(frames / total, 1) if total > 0 else None,
-        }
-        if self.plus:
-            s["points_superseded"] = int(self.records.dropped)
-        if self.association == "oracle":
-            s["detections_dropped_false_positive"] = {n: int(v) for n, v in zip(names, self.false_positives)}
-            s["detections_dropped_duplicate"] = int(self.counts["duplicates"])
-        return s
+        """Counts and timings so far (:func:`.summary.tracker_summary`)."""
+        return tracker_summary(self)
 
     # ================================================================ ingest (stage 1)
     def _ingest(self, frame: int, camera: np.ndarray, box: np.ndarray, score: np.ndarray, ident: np.ndarray) -> None:
@@ -291,7 +257,19 @@ class Tracker:
         tri, to_plane = self._timed("triangulation", self._triangulate, segs, labels)
         plane, floor = self._timed("plane", self._plane_fallback, segs, to_plane, D2)
         self._timed("linking", self._link, start, segs, tri, plane, floor)
+        if self.refiner is not None and self.refiner.due():
+            self._timed("plane", self._refine_plane, start)
         self._finalise(start + self.step - 1)
+
+    def _refine_plane(self, start: int) -> None:
+        """cascade+: the plane refitted from the tracker's own points (:mod:`.plane_refine`)."""
+        moved = self.refiner.refit(start + self.width - 1)
+        if moved is not None:
+            self.planes = [moved] + self.planes[1:]
+            self.plane_arrays = PlaneArrays.from_planes(self.planes)
+            self.target.planes = self.planes  # (Eq. 14's boxes follow the plane's normal)
+            if self.fusion is not None:
+                self.fusion.planes = self.plane_arrays
 
     def _timed(self, stage: str, fn: Callable, *args):
         t0 = time.perf_counter()
@@ -356,6 +334,8 @@ class Tracker:
         if self.plus:  # the floor's ghost test; a ghost's segments may go to the floor only
             tri, self._floor_only = drop_floor_ghosts(tri, segs, self.rig.arrays, self.plane_arrays, p, self.scene, self.counts,
                                                       lambda: self.linker.owners(segs.track2d))
+        if self.refiner is not None:  # the plane's points: what passed the tests, and the opposite pairs
+            self.refiner.observe(segs, tri, members[fallback & ((members >= 0).sum(axis=1) >= 2)])
         self.counts["clusters_triangulated"] += len(tri)
         return tri, to_plane
 

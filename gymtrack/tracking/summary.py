@@ -1,0 +1,59 @@
+"""The streaming tracker's summary: what each stage used, made and dropped, and its timings.
+
+Paper: Section III (Fig. 2), the counts of every stage of :class:`~.tracker.Tracker`; nothing the
+user gave is dropped without being counted here. Beyond the paper (issue 12): ``cascade+``'s own
+counters, reported in its summary only, so the other modes' outputs stay as they were.
+"""
+
+from __future__ import annotations
+
+from .fusion import COUNTS as FUSION_COUNTS
+from .motion_link import COUNTS as MOTION_COUNTS
+from .single_view_motion import COUNTS as VIEW_COUNTS
+
+__all__ = ["COUNTS", "PLUS_COUNTS", "STAGES", "tracker_summary"]
+
+#: the per-window counters of :meth:`Tracker.summary` (what was used, made, dropped)
+COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulated", "segments_to_plane",
+          "plane_tracklets", "segments_dropped_single", "tracklets_outliers", "links", "relinks", "plane_single_view",
+          "plane_single_view_unlinked", "floor_tracklets", "segments_to_floor", "floor_ghosts",
+          "segments_dropped_ghost", "plane_single_view_outside", "links_2d", "fused_plane", "fused_triangulated",
+          "fused_to_plane_stage")
+#: cascade+'s own counters, in its summary only (so the other modes' outputs stay as they were)
+PLUS_COUNTS = MOTION_COUNTS + VIEW_COUNTS + ("points_suppressed", "floor_single_view", "floor_ghosts_confirmed",
+                                            "links_older")
+STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
+
+
+def tracker_summary(t) -> dict:
+    """Counts and timings so far: frames with boxes, detections read / used / dropped per
+    camera, tracks, target frames and switches, seconds per stage, frames (with boxes) per second."""
+    frames = t.frames
+    total = sum(t.timings.values())
+    names = t.names
+    s = {
+        "mode": t.mode,
+        "association": t.association,
+        "frames": frames,
+        "first_frame": t.first_frame,
+        "last_frame": t.last_frame,
+        "detections_read": {n: int(v) for n, v in zip(names, t.read)},
+        "detections_used": {n: int(v) for n, v in zip(names, t.used)},
+        "tracks": int(t.linker.next_track_id),  # every track has at least one point
+        "target_frames": int(t.target.frames),
+        "target_switches": int(t.target.switches),
+        "target_identifications": int(t.target.identifications),
+        **{k: int(t.counts[k]) for k in COUNTS + (PLUS_COUNTS if t.plus else ())
+           + (FUSION_COUNTS if t.fusion is not None else ())},
+        "seconds": {k: round(v, 6) for k, v in t.timings.items()},
+        "seconds_total": round(total, 6),
+        "fps": round(frames / total, 1) if total > 0 else None,
+    }
+    if t.plus:
+        s["points_superseded"] = int(t.records.dropped)
+    if t.refiner is not None:
+        s["plane_refinement"] = t.refiner.summary()
+    if t.association == "oracle":
+        s["detections_dropped_false_positive"] = {n: int(v) for n, v in zip(names, t.false_positives)}
+        s["detections_dropped_duplicate"] = int(t.counts["duplicates"])
+    return s
