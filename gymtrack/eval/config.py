@@ -42,6 +42,20 @@ class BenchmarkConfig:
     pose_cascade_over_oracle: float = 1.3
     #: lifting one target seen by 4 views, frames per second, at least (benchmarks/bench_pose.py)
     pose_min_lift_fps: float = 2000.0
+    #: beyond the paper (issue 12), cascade+: all people, mean over apparatus, MOTA / IDF1 at n_cam = 4 at least
+    plus_mota_4: float = 0.85
+    plus_idf1_4: float = 0.80
+    #: ... MOTA at n_cam = 2 at least
+    plus_mota_2: float = 0.75
+    #: cascade+ target AED <= this x the oracle's at every n_cam
+    plus_aed_over_oracle: float = 1.15
+    #: cascade+ frames per second >= this x triangulation's (and >= ``min_fps``)
+    plus_fps_over_triangulation: float = 0.85
+    #: WILDTRACK: cascade+ MOTA and IDF1 at least
+    plus_wildtrack_mota: float = 0.6
+    plus_wildtrack_idf1: float = 0.6
+    #: WILDTRACK: cascade+ ghost and duplicate outputs below this x the paper's cascade's (same run)
+    plus_wildtrack_fp_over_cascade: float = 1 / 3
     #: the WILDTRACK dataset, relative to the current directory (the project root)
     wildtrack: Path = Path("../shared/data/wildtrack")
 
