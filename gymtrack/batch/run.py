@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Mapping
 
+from ..modes import DEFAULT_MODE
 from .engine import dask_client, run_tasks, worker_reports
 from .routines import STEPS, BatchRoutine, find_routines
 from .steps import BASE_COLUMNS, METRIC_COLUMNS, error_text, process_routine, remove_staging
@@ -91,7 +92,7 @@ def write_batch_files(out: str | Path, result: BatchResult, meta: Mapping) -> di
     return {"csv": out / "batch.csv", "json": out / "batch.json"}
 
 
-def run_batch(source: str | Path, out: str | Path, steps: tuple[str, ...] = STEPS, mode: str = "cascade",
+def run_batch(source: str | Path, out: str | Path, steps: tuple[str, ...] = STEPS, mode: str = DEFAULT_MODE,
               workers: int | None = None, scheduler: str | None = None, force: bool = False, mot: bool = True,
               on_row: Callable[[dict, BatchResult], None] | None = None, log: Callable[[str], None] | None = None,
               faults: Mapping[str, str] | None = None) -> BatchResult:
@@ -105,7 +106,7 @@ def run_batch(source: str | Path, out: str | Path, steps: tuple[str, ...] = STEP
     files are written with what finished (``interrupted`` set) and KeyboardInterrupt is re-raised.
     """
     from ..errors import InputError
-    from ..tracking.tracker import MODES
+    from ..modes import MODES
 
     if mode not in MODES:
         raise InputError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}", field="--mode")

@@ -28,6 +28,7 @@ import traceback
 from pathlib import Path
 
 from ..errors import InputError
+from ..modes import DEFAULT_MODE
 from ..formats.atomic import MARKER, atomic_output
 from .routines import BatchRoutine, marker_inputs, output_complete
 
@@ -125,7 +126,7 @@ def run_steps(routine: BatchRoutine, staging: Path, steps: tuple[str, ...], mode
     return info
 
 
-def process_routine(routine: BatchRoutine, out_root: str, steps: tuple[str, ...], mode: str = "cascade",
+def process_routine(routine: BatchRoutine, out_root: str, steps: tuple[str, ...], mode: str = DEFAULT_MODE,
                     force: bool = False, mot: bool = True, fault: str | None = None) -> dict:
     """Run one routine into ``<out_root>/<routine.name>/`` (a worker task); returns its batch.csv row.
 

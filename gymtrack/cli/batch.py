@@ -19,6 +19,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from gymtrack.cli import app
+from gymtrack.modes import DEFAULT_MODE
 
 console = Console()
 
@@ -28,7 +29,7 @@ def batch(
     source: Path = typer.Argument(..., help="folder of routines (every sub-folder with a scene.yaml) or a list file, one routine folder a line"),
     out: Path = typer.Option(..., "--out", "-o", help="output folder: <routine>/ per routine, batch.csv, batch.json"),
     steps: str = typer.Option("track,pose,eval", "--steps", help="comma-separated: track, pose, eval"),
-    mode: str = typer.Option("cascade", "--mode", "-m", help="cascade | triangulation | plane"),
+    mode: str = typer.Option(DEFAULT_MODE, "--mode", "-m", help="cascade (the paper) | cascade+ (beyond it) | triangulation | plane"),
     workers: int = typer.Option(0, "--workers", "-w", help="LocalCluster worker processes (0: one per CPU); ignored with --scheduler"),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="address of a running Dask scheduler, e.g. tcp://host:8786"),
     force: bool = typer.Option(False, "--force", help="redo routines whose outputs are already complete (and replace routine folders under OUT that are not gymtrack outputs)"),

@@ -17,6 +17,7 @@ from typing import Optional
 import typer
 
 from gymtrack.cli import app
+from gymtrack.modes import DEFAULT_MODE
 from gymtrack.cli.options import calibration_format_option, overwrite_option, units_option
 from gymtrack.cli.report import interrupts
 from gymtrack.cli.detect import (build_models, console, detect_report, load_rig_scene, open_routine_videos,
@@ -31,7 +32,7 @@ def run(
     pose_model: Optional[Path] = typer.Option(None, "--pose-model", help="pose ONNX file (or pose.path in --models)"),
     models_yaml: Optional[Path] = typer.Option(None, "--models", help="models.yaml with paths and adapter options"),
     device: Optional[str] = typer.Option(None, "--device", help="cpu | cuda | tensorrt | auto (default cpu)"),
-    mode: str = typer.Option("cascade", "--mode", "-m", help="cascade | triangulation | plane"),
+    mode: str = typer.Option(DEFAULT_MODE, "--mode", "-m", help="cascade (the paper) | cascade+ (beyond it) | triangulation | plane"),
     all_tracks: bool = typer.Option(False, "--all-tracks", help="pose and lift every 3D track, not only the target"),
     lift: str = typer.Option("robust", "--lift", help="dlt | robust"),
     overwrite: bool = overwrite_option(),
@@ -42,7 +43,7 @@ def run(
     from gymtrack.errors import InputError
     from gymtrack.formats.atomic import atomic_output
     from gymtrack.pose.stage import LIFT_METHODS
-    from gymtrack.tracking.tracker import MODES
+    from gymtrack.modes import MODES
 
     if mode not in MODES:
         raise InputError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}", field="--mode")

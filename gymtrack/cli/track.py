@@ -29,7 +29,7 @@ from gymtrack.cli import app
 from gymtrack.cli.options import (calibration_format_option, overwrite_option, read_routine, silent_seconds_option,
                                   strict_option, units_option)
 from gymtrack.cli.report import REPORTER, interrupts
-from gymtrack.tracking.tracker import MODES
+from gymtrack.modes import DEFAULT_MODE, MODES
 
 console = Console()
 
@@ -79,7 +79,7 @@ def empty_result_warnings(summary: dict) -> list[str]:
 def track(
     routine: Path = typer.Argument(..., help="routine folder (cameras.yaml, scene.yaml, detections/)"),
     out: Path = typer.Option(..., "--out", "-o", help="output folder (replaced whole, atomically, when the run completes)"),
-    mode: str = typer.Option("cascade", "--mode", "-m", help="cascade | triangulation | plane"),
+    mode: str = typer.Option(DEFAULT_MODE, "--mode", "-m", help="cascade (the paper) | cascade+ (beyond it) | triangulation | plane"),
     calibration_format: Optional[str] = calibration_format_option(),
     units: Optional[str] = units_option(),
     overwrite: bool = overwrite_option(),

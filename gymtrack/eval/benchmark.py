@@ -70,7 +70,7 @@ def run_method(method: str, rig: Rig, scene: Scene, det: Detections, gt: GroundT
     The oracle needs ``gt``: its GT matching happens before the clock starts.
     """
     from ..tracking.offline import track_detections
-    from ..tracking.tracker import MODES
+    from ..modes import MODES
 
     extra: dict = {}
     if method in MODES:

@@ -17,6 +17,7 @@ from ..detections import Detections
 from ..geometry.camera import Rig
 from ..scene import Scene
 from .plane_fit import resolve_auto_planes
+from ..modes import DEFAULT_MODE
 from .tracker import Tracker
 from .types import TrackerOutput, TrackResult
 
@@ -25,7 +26,7 @@ def track_detections(
     rig: Rig,
     scene: Scene,
     detections: Detections,
-    mode: str = "cascade",
+    mode: str = DEFAULT_MODE,
     association: str = "iou",
     progress: Callable[[int, int], None] | None = None,
 ) -> TrackResult:
@@ -57,7 +58,7 @@ def track_detections(
 
 def track_routine(
     routine,
-    mode: str = "cascade",
+    mode: str = DEFAULT_MODE,
     association: str = "iou",
     progress: Callable[[int, int], None] | None = None,
 ) -> TrackResult:

@@ -54,6 +54,7 @@ import numpy as np
 
 from ..detections import Detections
 from ..errors import InputError
+from ..modes import DEFAULT_MODE, MODES
 from ..scene import Scene
 from ..geometry.arrays import PlaneArrays
 from ..geometry.camera import Rig
@@ -84,7 +85,6 @@ from .windows import build_window
 #: moves ~0.3 m in that time, so at 2 fps no box is held (held boxes there were 1.4 m stale ghosts)
 HOLD_SECONDS = 0.2
 
-MODES = ("cascade", "triangulation", "plane", "cascade+")
 ASSOCIATIONS = ("iou", "oracle")
 
 
@@ -103,7 +103,7 @@ class Tracker:
     returns a :class:`TrackerOutput` of what became final.
     """
 
-    def __init__(self, rig: Rig, scene: Scene, mode: str = "cascade", association: str = "iou"):
+    def __init__(self, rig: Rig, scene: Scene, mode: str = DEFAULT_MODE, association: str = "iou"):
         if mode not in MODES:
             raise InputError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}", field="mode")
         if association not in ASSOCIATIONS:
