@@ -8,7 +8,8 @@ import cv2
 import numpy as np
 
 from conftest import make_detections, ring_rig, simple_scene
-from gymtrack.tracking.motion_link import first_boxes, motion_distances
+from gymtrack.tracking._kernels import motion_link as kernels
+from reference.motion_link import first_boxes, link_costs_numpy, motion_distances, window_ends_numpy
 from gymtrack.tracking.offline import track_detections
 
 
@@ -84,3 +85,48 @@ def test_iou_tracker_rename_continues_the_old_id():
     assert sorted(t.track_id.tolist()) == sorted([a[0], a[1]])
     c = t.update(2, np.array([0, 0]), np.array([[165.0, 100, 40, 100], [400, 100, 40, 100]]))
     assert c.tolist() == [a[0], a[1]]
+
+
+def _random_round(rng, N=60, L=14, T=4, C=4):
+    """Rows of a window (frame order) with old entries and new tracks, some prediction behind a camera."""
+    frame = np.sort(rng.integers(100, 112, N))
+    track2d = rng.integers(0, 12, N)
+    camera = track2d % C
+    ubox = np.c_[rng.uniform(200, 1700, (N, 2)), rng.uniform(20, 200, (N, 2))]
+    ubox[rng.random(N) < 0.05, 2] = 0.0  # a zero-width box: an infinite offset, as in numpy
+    new = np.sort(rng.choice(np.arange(6, 14), T, replace=False))  # 12, 13: no rows
+    t_o = rng.choice(np.r_[-1, np.arange(6)], L, replace=False) if L <= 7 else np.r_[np.arange(6), np.full(L - 6, -1)]
+    cam_o = rng.integers(0, C, L)
+    last_o = rng.integers(95, 108, L)
+    lf = rng.integers(98, 106, L)
+    lx = rng.uniform(-3, 3, (L, 3))
+    lv = rng.normal(0, 0.2, (L, 3))
+    P = rng.normal(0, 1, (C, 3, 4)) * 100
+    return frame, track2d, camera, ubox, new, cam_o, t_o, last_o, lf, lx, lv, P
+
+
+def test_link_costs_kernel_equals_numpy_reference_bitwise():
+    rng = np.random.default_rng(3)
+    finite = 0
+    for _ in range(200):
+        args = _random_round(rng)
+        D = kernels.link_costs(*args, 3, 5)
+        R = link_costs_numpy(*args, 3, 5)
+        assert np.array_equal(D, R, equal_nan=True)  # same bits: the links can never differ
+        finite += np.isfinite(D).sum()
+    assert finite > 100  # the comparison saw real costs, not only gated pairs
+
+
+def test_window_ends_kernels_equal_numpy_reference_bitwise():
+    rng = np.random.default_rng(4)
+    for _ in range(100):
+        M, W, C, K = 7, 10, 4, 9
+        valid = rng.random((M, W)) < 0.6
+        valid[np.arange(M), rng.integers(0, W, M)] = True
+        xyz = rng.normal(0, 2, (M, W, 3))
+        members = np.where(rng.random((M, C)) < 0.7, rng.integers(0, K, (M, C)), -1)
+        observed = rng.random((K, W)) < 0.5
+        ref = window_ends_numpy(xyz, valid, 40, 0.25, members, observed, 40)
+        got = kernels.tracklet_ends(xyz, valid, 40, 0.25) + (kernels.last_observed(members, observed, 40),)
+        for a, b in zip(got, ref):
+            assert a.dtype == b.dtype and np.array_equal(a, b)

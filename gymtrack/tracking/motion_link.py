@@ -31,51 +31,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from .linking import link, member, tracklet_ends
+from ._kernels import motion_link as kernels
+from .linking import link, member
 from .single_view import IoUTracker
 from .types import WindowTracklets, WindowTracklets3D
 
 FRAMES = 3  #: boxes of a new 2D track compared with the prediction (it drifts with time)
 GATE = 1.0  #: mean box-centre offset from the projected prediction, in box widths / heights
 COUNTS = ("links_3d_motion", "new_2d_tracks_unlinked")
-
-
-def first_boxes(frame: np.ndarray, track2d: np.ndarray, box: np.ndarray, ids: np.ndarray, n: int
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The first ``n`` boxes of each 2D track ``ids`` (T,) among rows frame (N,), track2d (N,),
-    box (N, 4) (centre form). Returns frames (T, n), boxes (T, n, 4), valid (T, n) bool."""
-    T = len(ids)
-    f_out, b_out, ok = np.zeros((T, n), np.int64), np.full((T, n, 4), np.nan), np.zeros((T, n), bool)
-    rows = np.flatnonzero(member(track2d, ids))
-    rows = rows[np.lexsort((frame[rows], track2d[rows]))]  # by track, then frame
-    which = np.searchsorted(ids, track2d[rows])  # ids sorted
-    rank = np.arange(len(rows)) - np.searchsorted(track2d[rows], track2d[rows])  # position within its track
-    use = rank < n
-    which, rank, rows = which[use], rank[use], rows[use]
-    f_out[which, rank], b_out[which, rank], ok[which, rank] = frame[rows], box[rows], True
-    return f_out, b_out, ok
-
-
-def motion_distances(P: np.ndarray, old_camera: np.ndarray, old_frame: np.ndarray, old_xyz: np.ndarray,
-                     old_velocity: np.ndarray, frames: np.ndarray, boxes: np.ndarray, ok: np.ndarray) -> np.ndarray:
-    """(L, T) mean normalised offset between the new tracks' boxes and the old tracks' projected
-    predictions. P: (C, 3, 4); old_camera, old_frame: (L,) the view and last frame of each 3D
-    track's end point old_xyz (L, 3), moving at old_velocity (L, 3) metres per frame; frames
-    (T, n), boxes (T, n, 4) centre form, ok (T, n): the new tracks' first boxes. NaN where a
-    prediction falls behind the camera."""
-    dt = frames[None] - old_frame[:, None, None]  # (L, T, n)
-    X = old_xyz[:, None, None, :] + old_velocity[:, None, None, :] * dt[..., None]  # (L, T, n, 3)
-    Pc = P[old_camera]  # (L, 3, 4)
-    h = np.einsum("lij,ltnj->ltni", Pc[..., :3], X) + Pc[:, None, None, :, 3]  # (L, T, n, 3)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        uv = h[..., :2] / h[..., 2:3]
-        off = (uv - boxes[None, ..., :2]) / boxes[None, ..., 2:]
-        d = np.linalg.norm(off, axis=-1)  # (L, T, n)
-        d = np.where(ok[None] & (h[..., 2] > 0), d, np.nan)
-        bad = (np.isnan(d) & ok[None]).any(axis=-1)  # a box with no prediction in front of the camera
-        out = np.nansum(np.where(ok[None], d, 0.0), axis=-1) / ok.sum(axis=-1)[None]
-    out[bad | ~ok.any(axis=-1)[None]] = np.nan
-    return out
 
 
 class MotionLinker:
@@ -110,15 +73,23 @@ class MotionLinker:
         if not M:
             self.ends, self.view_track = (), {}
             return
-        lf, lx, lv = tracklet_ends(cur.xyz, cur.valid, cur.start, self.max_speed)
+        # (compiled: tracklet_ends and the last observed frames, :mod:`._kernels.motion_link`)
+        lf, lx, lv = kernels.tracklet_ends(np.ascontiguousarray(cur.xyz, np.float64), np.ascontiguousarray(cur.valid),
+                                           cur.start, self.max_speed)
         has = cur.members >= 0
-        s = np.maximum(cur.members, 0)
-        obs = segs.observed[s] if len(segs) else np.zeros((M, C, cur.valid.shape[1]), bool)  # (M, C, W)
-        last_obs = np.where(has, segs.start + obs.shape[-1] - 1 - np.argmax(obs[..., ::-1], axis=-1), -1 << 40)
-        ids = segs.track2d[s] if len(segs) else np.zeros((M, C), np.int64)
+        if len(segs):
+            s = np.ascontiguousarray(cur.members, np.int64)
+            last_obs = kernels.last_observed(s, np.ascontiguousarray(segs.observed), segs.start)
+            ids = segs.track2d[np.maximum(s, 0)]
+        else:
+            last_obs, ids = np.full((M, C), -1 << 40, np.int64), np.zeros((M, C), np.int64)
         # a view without a member keeps the 2D track it had (or adopted) before
-        before = np.stack([self.view_track.get(t, np.full(C, -1, np.int64)) for t in cur.track_id.tolist()])
-        ids = np.where(has, ids, before)
+        vt = self.view_track
+        if vt and not has.all():
+            before = np.stack([vt.get(t, np.full(C, -1, np.int64)) for t in cur.track_id.tolist()])
+            ids = np.where(has, ids, before)
+        elif not has.all():
+            ids = np.where(has, ids, -1)
         self.view_track = dict(zip(cur.track_id.tolist(), ids))
         m = np.repeat(np.arange(M), C)
         self.ends = (np.tile(np.arange(C), M), ids.ravel(), last_obs.ravel(), cur.track_id[m], lf[m], lx[m], lv[m])
@@ -142,23 +113,13 @@ class MotionLinker:
         t_all = self.ends[1]
         _, keep = np.unique(np.where(t_all >= 0, t_all, -1 - np.arange(len(t_all))), return_index=True)
         cam_o, t_o, last_o, tid, lf, lx, lv = (a[keep] for a in self.ends)  # one entry per old 2D track
+        cam, ubox = np.ascontiguousarray(rows["camera"], np.int64), np.ascontiguousarray(rows["ubox"], np.float64)
         linked = 0
         for _ in range(self.step_frames):  # a track broken again in one window: the next piece joins in the next round
-            # the old track's last box: in the rows still held, else where the previous window saw it
-            last = last_o.copy()
-            held = member(track2d, t_o[t_o >= 0])
-            if held.any():
-                known = np.flatnonzero(t_o >= 0)
-                order = known[np.argsort(t_o[known])]
-                np.maximum.at(last, order[np.searchsorted(t_o[order], track2d[held])], frame[held])
-            frames, boxes, ok = first_boxes(frame, track2d, rows["ubox"], new, FRAMES)
-            cam_n = np.zeros(len(new), np.int64)
-            at = member(track2d, new)
-            cam_n[np.searchsorted(new, track2d[at])] = rows["camera"][at]
-            D = motion_distances(self.P, cam_o, lf, lx, lv, frames, boxes, ok)
-            gap = frames[:, 0][None, :] - last[:, None]  # (L, T); a view with no 2D track yet: any
-            late = ((gap < 1) | (gap > self.max_gap + 1)) & (t_o >= 0)[:, None]
-            D[(cam_o[:, None] != cam_n[None, :]) | late] = np.nan
+            # the old tracks' last boxes, the new ones' first boxes, the prediction's offset and
+            # the view / gap gates: one compiled call (:func:`._kernels.motion_link.link_costs`)
+            D = kernels.link_costs(frame, track2d, cam, ubox, new, cam_o, t_o, last_o, lf, lx, lv, self.P, FRAMES,
+                                   self.max_gap)
             r, c = link(D, self.gate)
             if not len(r):
                 break

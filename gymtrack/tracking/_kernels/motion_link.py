@@ -1,0 +1,143 @@
+"""Compiled kernels of ``cascade+``'s 3D-motion link of broken 2D tracks (beyond the paper: issue 12).
+
+:func:`link_costs`: one round of :class:`gymtrack.tracking.motion_link.MotionLinker` -- the old
+2D tracks' last boxes, the new tracks' first boxes and views, the (L, T) mean offset from the
+projected constant-velocity prediction and the view / gap gates -- in one call instead of ~40
+numpy calls (the arrays are a window's: ~15 old entries, ~3 new tracks). :func:`window_ends`:
+what :meth:`~gymtrack.tracking.motion_link.MotionLinker.remember` keeps per (tracklet, view).
+The numpy code they replace is ``tests/reference/motion_link.py``; the arithmetic is written in
+the reference's order (numpy's einsum order, no fused multiply-add), so the results are the same to the last bit and
+the links never change.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+_NAN = np.nan
+
+
+@njit(cache=True, error_model="numpy")
+def tracklet_ends(xyz, valid, start, max_speed):
+    """:func:`gymtrack.tracking.linking.tracklet_ends`: xyz (M, W, 3), valid (M, W) (a valid point
+    per row) -> last frame (M,), last xyz (M, 3), velocity (M, 3) metres per frame (clipped)."""
+    M, W = valid.shape
+    lf = np.empty(M, np.int64)
+    lx = np.empty((M, 3))
+    lv = np.empty((M, 3))
+    for m in range(M):
+        last = 0
+        for t in range(W - 1, -1, -1):
+            if valid[m, t]:
+                last = t
+                break
+        early = W
+        for t in range(max(last - 4, 0), W):
+            if valid[m, t]:
+                early = t
+                break
+        dt = max(last - early, 1)
+        v0 = (xyz[m, last, 0] - xyz[m, early, 0]) / dt
+        v1 = (xyz[m, last, 1] - xyz[m, early, 1]) / dt
+        v2 = (xyz[m, last, 2] - xyz[m, early, 2]) / dt
+        speed = np.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+        f = min(1.0, max_speed / max(speed, 1e-12))
+        lv[m, 0], lv[m, 1], lv[m, 2] = v0 * f, v1 * f, v2 * f
+        lx[m, 0], lx[m, 1], lx[m, 2] = xyz[m, last, 0], xyz[m, last, 1], xyz[m, last, 2]
+        lf[m] = start + last
+    return lf, lx, lv
+
+
+@njit(cache=True, error_model="numpy")
+def last_observed(members, observed, seg_start):
+    """(M, C) the last observed frame of each member segment (``members`` (M, C) index
+    ``observed`` (K, W)), ``-1 << 40`` where a view has none."""
+    M, C = members.shape
+    W = observed.shape[1]
+    out = np.full((M, C), -(1 << 40), np.int64)
+    for m in range(M):
+        for c in range(C):
+            s = members[m, c]
+            if s < 0:
+                continue
+            k = 0  # argmax of the reversed row: the last True, else index W - 1 - 0
+            for t in range(W - 1, -1, -1):
+                if observed[s, t]:
+                    k = W - 1 - t
+                    break
+            out[m, c] = seg_start + W - 1 - k
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def link_costs(frame, track2d, camera, ubox, new, cam_o, t_o, last_o, lf, lx, lv, P, n, max_gap):
+    """One round of the motion link. Rows frame, track2d, camera (N,), ubox (N, 4) centre form, in
+    frame order; new (T,) sorted new 2D track ids; per old entry (L,): its view cam_o, 2D track
+    t_o (-1: none), last frame seen last_o, the 3D track's end frame lf, point lx (L, 3),
+    velocity lv (L, 3); P (C, 3, 4); n boxes compared; max_gap frames.
+    Returns D (L, T): mean normalised offset of the new track's first ``n`` boxes from the
+    projected prediction, NaN where another view, a gap outside 1 .. max_gap + 1 (old tracks
+    only) or a prediction behind the camera."""
+    N, L, T = len(frame), len(t_o), len(new)
+    last = last_o.copy()  # the old track's last box: in the rows still held, else the previous window's
+    for i in range(N):
+        for l in range(L):
+            if t_o[l] >= 0 and t_o[l] == track2d[i] and frame[i] > last[l]:
+                last[l] = frame[i]
+    fr = np.zeros((T, n), np.int64)
+    bx = np.full((T, n, 4), _NAN)
+    cnt = np.zeros(T, np.int64)
+    cam_n = np.zeros(T, np.int64)
+    for i in range(N):  # the first n boxes of each new track (rows are in frame order)
+        j = np.searchsorted(new, track2d[i])
+        if j < T and new[j] == track2d[i]:
+            cam_n[j] = camera[i]
+            k = cnt[j]
+            if k < n:
+                fr[j, k] = frame[i]
+                for q in range(4):
+                    bx[j, k, q] = ubox[i, q]
+                cnt[j] = k + 1
+    D = np.full((L, T), _NAN)
+    for l in range(L):
+        c = cam_o[l]
+        for j in range(T):
+            if cam_n[j] != c or cnt[j] == 0:
+                continue
+            gap = fr[j, 0] - last[l]
+            if t_o[l] >= 0 and (gap < 1 or gap > max_gap + 1):
+                continue
+            s = 0.0
+            bad = False
+            for k in range(cnt[j]):
+                dt = float(fr[j, k] - lf[l])
+                X0 = lx[l, 0] + lv[l, 0] * dt
+                X1 = lx[l, 1] + lv[l, 1] * dt
+                X2 = lx[l, 2] + lv[l, 2] * dt
+                # (p0 + p2) + p1: the order numpy's einsum sums three products in (the reference's bits)
+                h0 = (P[c, 0, 0] * X0 + P[c, 0, 2] * X2) + P[c, 0, 1] * X1 + P[c, 0, 3]
+                h1 = (P[c, 1, 0] * X0 + P[c, 1, 2] * X2) + P[c, 1, 1] * X1 + P[c, 1, 3]
+                h2 = (P[c, 2, 0] * X0 + P[c, 2, 2] * X2) + P[c, 2, 1] * X1 + P[c, 2, 3]
+                o0 = (h0 / h2 - bx[j, k, 0]) / bx[j, k, 2]
+                o1 = (h1 / h2 - bx[j, k, 1]) / bx[j, k, 3]
+                d = np.sqrt(o0 * o0 + o1 * o1)
+                if not h2 > 0 or np.isnan(d):
+                    bad = True
+                    break
+                s += d
+            if not bad:
+                D[l, j] = s / cnt[j]
+    return D
+
+
+def warm_up() -> None:
+    """Compile (or load) the kernels on a tiny input of the tracker's argument types."""
+    xyz = np.zeros((1, 4, 3))
+    valid = np.ones((1, 4), bool)
+    tracklet_ends(xyz, valid, 0, 0.5)
+    last_observed(np.zeros((1, 2), np.int64), np.ones((1, 4), bool), 0)
+    i1 = np.zeros(1, np.int64)
+    P = np.zeros((1, 3, 4))
+    P[0, 0, 0] = P[0, 1, 1] = P[0, 2, 2] = P[0, 2, 3] = 1.0
+    link_costs(i1, i1, i1, np.ones((1, 4)), i1, i1, i1 - 1, i1, i1, np.zeros((1, 3)), np.zeros((1, 3)), P, 3, 5)
