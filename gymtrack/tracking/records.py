@@ -135,15 +135,18 @@ def _concat_estimates(parts: list[Tracks3D]) -> Tracks3D:
     return parts[0] if len(parts) == 1 else Tracks3D.concat(parts)
 
 
-def superseded(frame: np.ndarray, track_id: np.ndarray, window: np.ndarray, members: MemberRows) -> np.ndarray:
+def superseded(frame: np.ndarray, track_id: np.ndarray, window: np.ndarray, members: MemberRows,
+               order: np.ndarray | None = None) -> np.ndarray:
     """(n,) bool: estimates (frame, track_id, window) (n,) that had member detections in their
     frame and lost all of them to another track (each detection goes to the latest window's
     track, as in :meth:`WindowRecords.boxes`). Estimates without detections in their frame
-    (interpolated or held boxes) are never superseded."""
+    (interpolated or held boxes) are never superseded. ``order``: ``np.lexsort((-window, det))``
+    of the members when the caller has it."""
     det, win, tid = members.det, members.window, members.track_id
     if not len(det) or not len(frame):
         return np.zeros(len(frame), bool)
-    order = np.lexsort((-win, det))  # per detection, the latest window first
+    if order is None:
+        order = np.lexsort((-win, det))  # per detection, the latest window first
     d = det[order]
     first = np.ones(len(d), bool)
     np.not_equal(d[1:], d[:-1], out=first[1:])
@@ -176,6 +179,7 @@ class WindowRecords:
         self._estimates: list[Tracks3D] = []
         self._windows: list[np.ndarray] = []  # the window index of every estimate (parallel to _estimates)
         self._members: list[MemberRows] = []
+        self._sorted: tuple | None = None  # (members, upto, final, final rows, their sort): shared with boxes()
 
     def __len__(self) -> int:
         return sum(len(r) for r in self._estimates) + sum(len(r) for r in self._members)
@@ -217,7 +221,11 @@ class WindowRecords:
         if self.superseded and self._members and len(out):
             mem = MemberRows.concat(self._members)
             self._members = [mem]  # (boxes() would concatenate them again)
-            est = superseded(r.frame, r.track_id, win[done], mem.select(mem.frame <= upto))
+            final = mem.frame <= upto
+            sel = mem.select(final)
+            order = np.lexsort((-sel.window, sel.det))  # per detection, the latest window first
+            self._sorted = (mem, upto, final, sel, order)  # boxes(upto) next needs the same rows and sort
+            est = superseded(r.frame, r.track_id, win[done], sel, order)
             if est.any():  # a point is gone when none of its estimates kept a detection
                 span = int(out.track_id.max()) + 1
                 gone = ~np.isin(out.frame * span + out.track_id, r.frame[~est] * span + r.track_id[~est])
@@ -232,9 +240,13 @@ class WindowRecords:
         if not self._members:
             return None
         rows = MemberRows.concat(self._members)
-        done = rows.frame <= upto
+        cached, self._sorted = self._sorted, None
+        if cached is not None and cached[0] is rows and cached[1] == upto:  # tracks_superseded sorted them
+            done, r, order = cached[2], cached[3], cached[4]
+        else:
+            done = rows.frame <= upto
+            r, order = rows.select(done), None
         self._members = [rows.select(~done)] if not done.all() else []
-        r = rows.select(done)
         det, frame, cam, tid, win = r.det, r.frame, r.camera, r.track_id, r.window
 
         def group_starts(keys):  # sorted keys -> True at the first row of every run of equal keys
@@ -244,7 +256,8 @@ class WindowRecords:
 
         # two stable sorts, each keeping the first row of every group (cheaper than np.unique):
         # per detection the latest window (ties: the earlier record) ...
-        order = np.lexsort((-win, det))
+        if order is None:
+            order = np.lexsort((-win, det))
         first = order[group_starts(det[order])]
         det, frame, cam, tid = det[first], frame[first], cam[first], tid[first]
         # ... then per (frame, view, track) the smallest detection; the result is in
