@@ -11,6 +11,7 @@ from conftest import make_detections, ring_rig
 from gymtrack.errors import InputError
 from gymtrack.formats.scene import scene_from_dict
 from gymtrack.tracking.exclusion import too_close
+from reference.exclusion import too_close_numpy
 from gymtrack.tracking.offline import track_detections
 from gymtrack.tracking.records import MemberRows, superseded
 from gymtrack.tracking.single_view import IoUTracker, iou_matrix
@@ -144,6 +145,22 @@ def test_too_close_against_brute_force():
     assert np.array_equal(got, want) and 0 < got.sum() < n
     with pytest.raises(InputError):
         too_close(frame, tid, xyz, 0.0)
+
+
+def test_too_close_kernel_equals_numpy_reference():
+    rng = np.random.default_rng(5)
+    for n in (2, 50, 900):  # 900: the reference's frame-by-frame path
+        frame = rng.integers(0, max(2, n // 15), n)
+        tid = rng.integers(0, n // 3 + 2, n)  # repeated ids: a track is never close to itself
+        xyz = rng.uniform(0, 2, (n, 3))
+        xyz[rng.random(n) < 0.05] = np.nan
+        assert np.array_equal(too_close(frame, tid, xyz, 0.5), too_close_numpy(frame, tid, xyz, 0.5))
+        skip = rng.random(n) < 0.2  # left out points: as if they were not there
+        rest = np.flatnonzero(~skip)
+        want = np.zeros(n, bool)
+        want[rest] = too_close_numpy(frame[rest], tid[rest], xyz[rest], 0.5)
+        got = too_close(frame, tid, xyz, 0.5, skip=skip)
+        assert np.array_equal(got, want) and (n < 50 or 0 < got.sum() < n)
 
 
 def test_superseded_when_a_later_window_took_every_box():
