@@ -9,7 +9,7 @@ import numpy as np
 
 from conftest import make_detections, ring_rig, simple_scene
 from gymtrack.tracking._kernels import motion_link as kernels
-from reference.motion_link import first_boxes, link_costs_numpy, motion_distances, window_ends_numpy
+from reference.motion_link import first_boxes, link_costs_numpy, motion_distances, new_tracks_numpy, window_ends_numpy
 from gymtrack.tracking.offline import track_detections
 
 
@@ -130,3 +130,17 @@ def test_window_ends_kernels_equal_numpy_reference_bitwise():
         got = kernels.tracklet_ends(xyz, valid, 40, 0.25) + (kernels.last_observed(members, observed, 40),)
         for a, b in zip(got, ref):
             assert a.dtype == b.dtype and np.array_equal(a, b)
+
+
+def test_new_tracks_kernel_equals_numpy_reference():
+    rng = np.random.default_rng(6)
+    found = 0
+    for _ in range(200):
+        frame = np.sort(rng.integers(90, 115, 80))
+        track2d = rng.integers(0, 30, 80)
+        seen = rng.choice(30, rng.integers(0, 10), replace=False)
+        got = kernels.new_tracks(frame, track2d, 100, 110, 105, seen)
+        want = new_tracks_numpy(frame, track2d, 100, 110, 105, seen)
+        assert got.dtype == want.dtype and np.array_equal(got, want)
+        found += len(got)
+    assert found > 100

@@ -32,7 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._kernels import motion_link as kernels
-from .linking import link, member
+from .linking import link
 from .single_view import IoUTracker
 from .types import WindowTracklets, WindowTracklets3D
 
@@ -100,9 +100,9 @@ class MotionLinker:
         IoU tracker). ``seen``: the 2D tracks of the previous window's segments."""
         frame, track2d = rows["frame"], rows["track2d"]
         fresh_from = start + self.width - self.step_frames  # frames no earlier window covered
-        inwin = (frame >= start) & (frame < start + self.width)
-        ids, first_at = np.unique(track2d[inwin], return_index=True)  # rows are in frame order
-        new = ids[(frame[inwin][first_at] >= fresh_from) & ~member(ids, seen)]
+        # (compiled: the rows are in frame order, a track's first row in the window its first box)
+        new = kernels.new_tracks(frame, track2d, start, start + self.width, fresh_from,
+                                 np.ascontiguousarray(seen, np.int64))
         linked = 0
         if len(new) and self.ends and self.start == start - self.step_frames:
             linked = self._link(new, frame, track2d, rows, iou)

@@ -74,3 +74,10 @@ def window_ends_numpy(xyz, valid, start, max_speed, members, observed, seg_start
     obs = observed[np.maximum(members, 0)]
     last_obs = np.where(has, seg_start + obs.shape[-1] - 1 - np.argmax(obs[..., ::-1], axis=-1), -1 << 40)
     return lf, lx, lv, last_obs
+
+
+def new_tracks_numpy(frame, track2d, start, stop, fresh_from, seen):
+    """MotionLinker.step's new 2D tracks of the window (rows in frame order)."""
+    inwin = (frame >= start) & (frame < stop)
+    ids, first_at = np.unique(track2d[inwin], return_index=True)
+    return ids[(frame[inwin][first_at] >= fresh_from) & ~member(ids, seen)]

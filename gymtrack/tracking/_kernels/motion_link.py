@@ -4,7 +4,8 @@
 2D tracks' last boxes, the new tracks' first boxes and views, the (L, T) mean offset from the
 projected constant-velocity prediction and the view / gap gates -- in one call instead of ~40
 numpy calls (the arrays are a window's: ~15 old entries, ~3 new tracks). :func:`window_ends`:
-what :meth:`~gymtrack.tracking.motion_link.MotionLinker.remember` keeps per (tracklet, view).
+what :meth:`~gymtrack.tracking.motion_link.MotionLinker.remember` keeps per (tracklet, view);
+:func:`new_tracks`: a window's new 2D tracks.
 The numpy code they replace is ``tests/reference/motion_link.py``; the arithmetic is written in
 the reference's order (numpy's einsum order, no fused multiply-add), so the results are the same to the last bit and
 the links never change.
@@ -131,6 +132,34 @@ def link_costs(frame, track2d, camera, ubox, new, cam_o, t_o, last_o, lf, lx, lv
     return D
 
 
+@njit(cache=True, error_model="numpy")
+def new_tracks(frame, track2d, start, stop, fresh_from, seen):
+    """The 2D tracks (sorted ids) of the rows frame, track2d (N,) (frame order) in the frames
+    ``start .. stop - 1`` whose first box there lies at ``fresh_from`` or later and which are
+    not among ``seen`` (M,)."""
+    a = np.searchsorted(frame, start)
+    b = np.searchsorted(frame, stop)
+    ids = track2d[a:b]
+    order = np.argsort(ids, kind="mergesort")  # stable: a track's first row comes first
+    out = np.empty(len(ids), np.int64)
+    n = 0
+    for p in range(len(order)):
+        i = order[p]
+        if p > 0 and ids[i] == ids[order[p - 1]]:
+            continue
+        if frame[a + i] < fresh_from:
+            continue
+        fresh = True
+        for q in range(len(seen)):
+            if seen[q] == ids[i]:
+                fresh = False
+                break
+        if fresh:
+            out[n] = ids[i]
+            n += 1
+    return out[:n]
+
+
 def warm_up() -> None:
     """Compile (or load) the kernels on a tiny input of the tracker's argument types."""
     xyz = np.zeros((1, 4, 3))
@@ -140,4 +169,5 @@ def warm_up() -> None:
     i1 = np.zeros(1, np.int64)
     P = np.zeros((1, 3, 4))
     P[0, 0, 0] = P[0, 1, 1] = P[0, 2, 2] = P[0, 2, 3] = 1.0
+    new_tracks(i1, i1, 0, 4, 2, i1)
     link_costs(i1, i1, i1, np.ones((1, 4)), i1, i1, i1 - 1, i1, i1, np.zeros((1, 3)), np.zeros((1, 3)), P, 3, 5)
