@@ -58,13 +58,14 @@ class MotionLinker:
         self.P, self.step_frames, self.width = np.asarray(P, np.float64), int(step), int(width)
         self.max_gap, self.max_speed, self.counts, self.gate = int(max_gap), float(max_speed), counts, float(gate)
         self.start: int | None = None  # the previous window's start
-        # per (tracklet, view) of the previous window: camera, the view's 2D track (-1: none
-        # yet), its last observed frame, the 3D track, and the tracklet's end: frame, xyz, velocity
-        self.ends: tuple[np.ndarray, ...] = ()
+        # the previous window's tracklets (M): the views C, per (tracklet, view) the view's 2D
+        # track (-1: none yet) and its last observed frame (M, C), the 3D track, and the
+        # tracklet's end: frame, xyz, velocity
+        self.ends: tuple = ()
         self.view_track: dict[int, np.ndarray] = {}  # live 3D track -> (C,) its 2D track per view
 
     def __len__(self) -> int:
-        return (len(self.ends[0]) if self.ends else 0) + len(self.view_track)
+        return (self.ends[1].size if self.ends else 0) + len(self.view_track)
 
     def remember(self, cur: WindowTracklets3D, segs: WindowTracklets) -> None:
         """The linked tracklets (M, W) of a window and its segments (``members`` index them)."""
@@ -91,8 +92,7 @@ class MotionLinker:
         elif not has.all():
             ids = np.where(has, ids, -1)
         self.view_track = dict(zip(cur.track_id.tolist(), ids))
-        m = np.repeat(np.arange(M), C)
-        self.ends = (np.tile(np.arange(C), M), ids.ravel(), last_obs.ravel(), cur.track_id[m], lf[m], lx[m], lv[m])
+        self.ends = (C, ids, last_obs, cur.track_id, lf, lx, lv)  # (spread per view only when a link is tried)
 
     def step(self, start: int, rows: dict, iou: IoUTracker, seen: np.ndarray) -> None:
         """Before the window at ``start`` is cut: its new 2D tracks that continue a 3D track's
@@ -110,9 +110,11 @@ class MotionLinker:
         self.counts["new_2d_tracks_unlinked"] += len(new) - linked
 
     def _link(self, new: np.ndarray, frame: np.ndarray, track2d: np.ndarray, rows: dict, iou: IoUTracker) -> int:
-        t_all = self.ends[1]
+        C, ids, last_obs, track_id, lf, lx, lv = self.ends
+        t_all = ids.ravel()  # per (tracklet, view)
         _, keep = np.unique(np.where(t_all >= 0, t_all, -1 - np.arange(len(t_all))), return_index=True)
-        cam_o, t_o, last_o, tid, lf, lx, lv = (a[keep] for a in self.ends)  # one entry per old 2D track
+        m = keep // C  # one entry per old 2D track: its view, 2D track, last frame seen, 3D track and end
+        cam_o, t_o, last_o, tid, lf, lx, lv = keep % C, t_all[keep], last_obs.ravel()[keep], track_id[m], lf[m], lx[m], lv[m]
         cam, ubox = np.ascontiguousarray(rows["camera"], np.int64), np.ascontiguousarray(rows["ubox"], np.float64)
         linked = 0
         for _ in range(self.step_frames):  # a track broken again in one window: the next piece joins in the next round
