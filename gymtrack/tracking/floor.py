@@ -32,6 +32,8 @@ ray-plane intersection) where observed.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from ..geometry.arrays import PlaneArrays, RigArrays
@@ -55,6 +57,17 @@ def _rules(threshold: float) -> kernels.FloorRules:
 
 def _c(a: np.ndarray, dtype=None) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=dtype)
+
+
+@lru_cache(maxsize=16)
+def _space(performance_space: tuple, buffer: float = 0.0) -> np.ndarray:
+    """(6,) float64 ``S_perf`` grown by ``buffer`` in x and y (``buffer``: ``S_track``, as
+    :attr:`~gymtrack.scene.Scene.tracking_space`), built once per scene instead of per window
+    (shared: the kernels only read it; writeable, so numba sees the type its warm-up compiled)."""
+    s = np.array(performance_space, dtype=np.float64)
+    if buffer:
+        s = s + np.array([-buffer, -buffer, 0.0, buffer, buffer, 0.0])
+    return s
 
 
 def _f64(a: np.ndarray) -> np.ndarray:
@@ -103,15 +116,14 @@ def floor_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | No
     C = len(rig.K)
     n_plane = len(to_plane)
     if floor_only is not None and len(floor_only):
-        to_plane = np.r_[to_plane, floor_only]
+        to_plane = np.concatenate([to_plane, floor_only])
     sub = segs.subset(to_plane)
-    apart = None if D2 is None else D2[np.ix_(to_plane, to_plane)] >= params.cluster_2d
+    apart = None if D2 is None else D2[to_plane][:, to_plane] >= params.cluster_2d  # (two takes: cheaper than np.ix_)
     labels = np.unique(sub.track2d // C, return_inverse=True)[1] if oracle else None
-    space = np.asarray(scene.performance_space, dtype=np.float64)
-    fl, used = floor_stage(sub, rig, params.cluster_plane, space, apart, labels)
-    counts["segments_to_floor"] += int(used.sum())
+    fl, used = floor_stage(sub, rig, params.cluster_plane, _space(scene.performance_space), apart, labels)
+    counts["segments_to_floor"] += int(np.count_nonzero(used))
     if len(fl):
-        bad = outliers(fl.xyz, fl.valid, np.asarray(scene.tracking_space, dtype=np.float64), params.max_speed)
+        bad = outliers(fl.xyz, fl.valid, _space(scene.performance_space, scene.buffer), params.max_speed)
         if bad.any():  # Eq. 4, as for every 3D tracklet
             counts["tracklets_outliers"] += int(bad.sum())
             fl = fl.subset(~bad)
@@ -146,7 +158,7 @@ def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig:
     ghost = kernels.ghost_test(
         _c(tri.members, np.int64), _c(tri.valid), _f64(tri.bottom_z), _f64(tri.xyz), _f64(segs.box), _c(segs.valid),
         _c(segs.observed), _c(segs.camera, np.int64), rig, PlaneArrays.from_planes(planes),
-        _f64(scene.performance_space), AIR, MIN_COS, _rules(params.cluster_plane))
+        _space(scene.performance_space), AIR, MIN_COS, _rules(params.cluster_plane))
     if not ghost.any():
         return tri, none
     counts["floor_ghosts"] += int(ghost.sum())
