@@ -12,6 +12,7 @@ from gymtrack.errors import InputError
 from gymtrack.formats.scene import scene_from_dict
 from gymtrack.tracking.exclusion import too_close
 from reference.exclusion import too_close_numpy
+from reference.records import superseded_numpy
 from gymtrack.tracking.offline import track_detections
 from gymtrack.tracking.records import MemberRows, superseded
 from gymtrack.tracking.single_view import IoUTracker, iou_matrix
@@ -174,3 +175,19 @@ def test_superseded_when_a_later_window_took_every_box():
     window = np.array([0, 0, 1, 0])
     # (5, 7, w0) keeps detection 2; (6, 7, w0) lost its only one; (6, 9, w1) won it; (4, 7, w0): no detections
     assert superseded(frame, track, window, mem).tolist() == [False, True, False, False]
+
+
+def test_superseded_kernel_equals_numpy_reference():
+    rng = np.random.default_rng(7)
+    hits = 0
+    for _ in range(200):
+        m = int(rng.integers(0, 60))
+        det = rng.integers(0, 25, m)  # a detection in one or more windows, one frame per detection
+        mem = MemberRows(det=det, frame=100 + det % 5, camera=det % 3, track_id=rng.integers(0, 6, m),
+                         window=rng.integers(0, 3, m))
+        n = 40
+        frame, track, window = rng.integers(99, 106, n), rng.integers(0, 7, n), rng.integers(0, 3, n)
+        got = superseded(frame, track, window, mem)
+        assert np.array_equal(got, superseded_numpy(frame, track, window, mem))
+        hits += got.sum()
+    assert hits > 20
