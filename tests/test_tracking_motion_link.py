@@ -9,7 +9,8 @@ import numpy as np
 
 from conftest import make_detections, ring_rig, simple_scene
 from gymtrack.tracking._kernels import motion_link as kernels
-from reference.motion_link import first_boxes, link_costs_numpy, motion_distances, new_tracks_numpy, window_ends_numpy
+from reference.motion_link import (first_boxes, link_costs_numpy, motion_distances, new_tracks_numpy,
+                                   old_entries_numpy, window_ends_numpy)
 from gymtrack.tracking.offline import track_detections
 
 
@@ -144,3 +145,15 @@ def test_new_tracks_kernel_equals_numpy_reference():
         assert got.dtype == want.dtype and np.array_equal(got, want)
         found += len(got)
     assert found > 100
+
+
+def test_old_entries_kernel_equals_numpy_reference():
+    rng = np.random.default_rng(8)
+    for _ in range(200):
+        M, C = int(rng.integers(1, 12)), 4
+        ids = np.where(rng.random((M, C)) < 0.7, rng.integers(0, 20, (M, C)), -1)  # shared ids: one entry each
+        last_obs, tid, lf = rng.integers(0, 99, (M, C)), rng.permutation(50)[:M], rng.integers(0, 99, M)
+        lx, lv = rng.normal(size=(M, 3)), rng.normal(size=(M, 3))
+        got = kernels.old_entries(C, ids, last_obs, tid, lf, lx, lv)
+        for a, b in zip(got, old_entries_numpy(C, ids, last_obs, tid, lf, lx, lv)):
+            assert a.dtype == b.dtype and np.array_equal(a, b)

@@ -92,7 +92,8 @@ class MotionLinker:
         elif not has.all():
             ids = np.where(has, ids, -1)
         self.view_track = dict(zip(cur.track_id.tolist(), ids))
-        self.ends = (C, ids, last_obs, cur.track_id, lf, lx, lv)  # (spread per view only when a link is tried)
+        self.ends = (C, np.ascontiguousarray(ids, np.int64), last_obs, np.ascontiguousarray(cur.track_id, np.int64),
+                     lf, lx, lv)  # (spread per view only when a link is tried)
 
     def step(self, start: int, rows: dict, iou: IoUTracker, seen: np.ndarray) -> None:
         """Before the window at ``start`` is cut: its new 2D tracks that continue a 3D track's
@@ -110,11 +111,8 @@ class MotionLinker:
         self.counts["new_2d_tracks_unlinked"] += len(new) - linked
 
     def _link(self, new: np.ndarray, frame: np.ndarray, track2d: np.ndarray, rows: dict, iou: IoUTracker) -> int:
-        C, ids, last_obs, track_id, lf, lx, lv = self.ends
-        t_all = ids.ravel()  # per (tracklet, view)
-        _, keep = np.unique(np.where(t_all >= 0, t_all, -1 - np.arange(len(t_all))), return_index=True)
-        m = keep // C  # one entry per old 2D track: its view, 2D track, last frame seen, 3D track and end
-        cam_o, t_o, last_o, tid, lf, lx, lv = keep % C, t_all[keep], last_obs.ravel()[keep], track_id[m], lf[m], lx[m], lv[m]
+        # one entry per old 2D track: its view, 2D track, last frame seen, 3D track and end (compiled)
+        cam_o, t_o, last_o, tid, lf, lx, lv = kernels.old_entries(*self.ends)
         cam, ubox = np.ascontiguousarray(rows["camera"], np.int64), np.ascontiguousarray(rows["ubox"], np.float64)
         linked = 0
         for _ in range(self.step_frames):  # a track broken again in one window: the next piece joins in the next round

@@ -81,3 +81,11 @@ def new_tracks_numpy(frame, track2d, start, stop, fresh_from, seen):
     inwin = (frame >= start) & (frame < stop)
     ids, first_at = np.unique(track2d[inwin], return_index=True)
     return ids[(frame[inwin][first_at] >= fresh_from) & ~member(ids, seen)]
+
+
+def old_entries_numpy(C, ids, last_obs, track_id, lf, lx, lv):
+    """MotionLinker._link's one entry per old 2D track (np.unique of the keys, first index)."""
+    t_all = ids.ravel()
+    _, keep = np.unique(np.where(t_all >= 0, t_all, -1 - np.arange(len(t_all))), return_index=True)
+    m = keep // C
+    return keep % C, t_all[keep], last_obs.ravel()[keep], track_id[m], lf[m], lx[m], lv[m]

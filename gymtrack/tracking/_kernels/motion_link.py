@@ -5,7 +5,8 @@
 projected constant-velocity prediction and the view / gap gates -- in one call instead of ~40
 numpy calls (the arrays are a window's: ~15 old entries, ~3 new tracks). :func:`window_ends`:
 what :meth:`~gymtrack.tracking.motion_link.MotionLinker.remember` keeps per (tracklet, view);
-:func:`new_tracks`: a window's new 2D tracks.
+:func:`new_tracks`: a window's new 2D tracks; :func:`old_entries`: the previous window's, one
+entry per 2D track.
 The numpy code they replace is ``tests/reference/motion_link.py``; the arithmetic is written in
 the reference's order (numpy's einsum order, no fused multiply-add), so the results are the same to the last bit and
 the links never change.
@@ -160,6 +161,38 @@ def new_tracks(frame, track2d, start, stop, fresh_from, seen):
     return out[:n]
 
 
+@njit(cache=True, error_model="numpy")
+def old_entries(C, ids, last_obs, track_id, lf, lx, lv):
+    """One entry per old 2D track from the previous window's (M, C) views: ids, last_obs (M, C),
+    track_id, lf (M,), lx, lv (M, 3) -> their view, 2D track, last frame seen, 3D track, end frame,
+    end point and velocity, ordered as ``np.unique`` orders the keys (views without a 2D track
+    first, latest tracklet first; then by 2D track, each at its first (tracklet, view))."""
+    n = ids.size
+    flat = ids.ravel()
+    key = np.empty(n, np.int64)
+    for e in range(n):
+        key[e] = flat[e] if flat[e] >= 0 else -1 - e
+    order = np.argsort(key, kind="mergesort")  # stable: the first (tracklet, view) of a 2D track first
+    keep = np.empty(n, np.int64)
+    k = 0
+    for p in range(n):
+        if p > 0 and key[order[p]] == key[order[p - 1]]:
+            continue
+        keep[k] = order[p]
+        k += 1
+    keep = keep[:k]
+    m = keep // C
+    lo = last_obs.ravel()
+    cam, t, last, tid, f = keep % C, flat[keep], lo[keep], track_id[m], lf[m]
+    x = np.empty((k, 3))
+    v = np.empty((k, 3))
+    for i in range(k):
+        for q in range(3):
+            x[i, q] = lx[m[i], q]
+            v[i, q] = lv[m[i], q]
+    return cam, t, last, tid, f, x, v
+
+
 def warm_up() -> None:
     """Compile (or load) the kernels on a tiny input of the tracker's argument types."""
     xyz = np.zeros((1, 4, 3))
@@ -170,4 +203,5 @@ def warm_up() -> None:
     P = np.zeros((1, 3, 4))
     P[0, 0, 0] = P[0, 1, 1] = P[0, 2, 2] = P[0, 2, 3] = 1.0
     new_tracks(i1, i1, 0, 4, 2, i1)
+    old_entries(2, np.zeros((1, 2), np.int64), np.zeros((1, 2), np.int64), i1, i1, np.zeros((1, 3)), np.zeros((1, 3)))
     link_costs(i1, i1, i1, np.ones((1, 4)), i1, i1, i1 - 1, i1, i1, np.zeros((1, 3)), np.zeros((1, 3)), P, 3, 5)
