@@ -124,10 +124,13 @@ def floor_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | No
     counts["segments_to_floor"] += int(np.count_nonzero(used))
     if len(fl):
         bad = outliers(fl.xyz, fl.valid, _space(scene.performance_space, scene.buffer), params.max_speed)
-        if bad.any():  # Eq. 4, as for every 3D tracklet
-            counts["tracklets_outliers"] += int(bad.sum())
-            fl = fl.subset(~bad)
-        fl = fl.with_members(np.where(fl.members >= 0, to_plane[np.maximum(fl.members, 0)], -1))
+        keep = np.flatnonzero(~bad)  # (integer takes: cheaper than a mask per column)
+        if len(keep) < len(bad):  # Eq. 4, as for every 3D tracklet
+            counts["tracklets_outliers"] += len(bad) - len(keep)
+        m = fl.members[keep]
+        fl = WindowTracklets3D(fl.start, fl.xyz[keep], fl.top_z[keep], fl.bottom_z[keep], fl.valid[keep],
+                               fl.source[keep], fl.n_views[keep], np.where(m >= 0, to_plane[np.maximum(m, 0)], -1),
+                               fl.track_id[keep])
         counts["floor_tracklets"] += len(fl)
     rest = ~used
     if rest[n_plane:].any():
