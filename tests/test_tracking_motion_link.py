@@ -10,7 +10,7 @@ import numpy as np
 from conftest import make_detections, ring_rig, simple_scene
 from gymtrack.tracking._kernels import motion_link as kernels
 from reference.motion_link import (first_boxes, link_costs_numpy, motion_distances, new_tracks_numpy,
-                                   old_entries_numpy, window_ends_numpy)
+                                   keep_views_numpy, old_entries_numpy, window_ends_numpy)
 from gymtrack.tracking.offline import track_detections
 
 
@@ -157,3 +157,17 @@ def test_old_entries_kernel_equals_numpy_reference():
         got = kernels.old_entries(C, ids, last_obs, tid, lf, lx, lv)
         for a, b in zip(got, old_entries_numpy(C, ids, last_obs, tid, lf, lx, lv)):
             assert a.dtype == b.dtype and np.array_equal(a, b)
+
+
+def test_keep_views_kernel_equals_numpy_reference():
+    rng = np.random.default_rng(9)
+    for _ in range(200):
+        M, P, C = int(rng.integers(1, 10)), int(rng.integers(1, 10)), 4
+        members = np.where(rng.random((M, C)) < 0.6, rng.integers(0, 30, (M, C)), -1)
+        ids = rng.integers(0, 50, (M, C))
+        track_id = rng.integers(0, 12, M)
+        prev_track_id = rng.integers(0, 12, P)  # repeated ids: the last row counts, as in a dict
+        prev_ids = rng.integers(-1, 50, (P, C))
+        want = keep_views_numpy(members, ids, track_id, prev_track_id, prev_ids)
+        got = kernels.keep_views(members, ids.copy(), track_id, prev_track_id, prev_ids)
+        assert np.array_equal(got, want)

@@ -62,7 +62,8 @@ class MotionLinker:
         # track (-1: none yet) and its last observed frame (M, C), the 3D track, and the
         # tracklet's end: frame, xyz, velocity
         self.ends: tuple = ()
-        self.view_track: dict[int, np.ndarray] = {}  # live 3D track -> (C,) its 2D track per view
+        # the previous window's 3D tracks (P,) and per view their 2D track (P, C) (-1: none)
+        self.view_ids, self.view_track = np.zeros(0, np.int64), np.zeros((0, 0), np.int64)
 
     def __len__(self) -> int:
         return (self.ends[1].size if self.ends else 0) + len(self.view_track)
@@ -72,28 +73,24 @@ class MotionLinker:
         self.start = cur.start
         M, C = cur.members.shape
         if not M:
-            self.ends, self.view_track = (), {}
+            self.ends, self.view_ids, self.view_track = (), np.zeros(0, np.int64), np.zeros((0, C), np.int64)
             return
         # (compiled: tracklet_ends and the last observed frames, :mod:`._kernels.motion_link`)
         lf, lx, lv = kernels.tracklet_ends(np.ascontiguousarray(cur.xyz, np.float64), np.ascontiguousarray(cur.valid),
                                            cur.start, self.max_speed)
-        has = cur.members >= 0
+        members, tid = np.ascontiguousarray(cur.members, np.int64), cur.track_id.astype(np.int64)  # (a copy: kept)
         if len(segs):
-            s = np.ascontiguousarray(cur.members, np.int64)
-            last_obs = kernels.last_observed(s, np.ascontiguousarray(segs.observed), segs.start)
-            ids = segs.track2d[np.maximum(s, 0)]
+            last_obs = kernels.last_observed(members, np.ascontiguousarray(segs.observed), segs.start)
+            ids = np.ascontiguousarray(segs.track2d[np.maximum(members, 0)], np.int64)
         else:
             last_obs, ids = np.full((M, C), -1 << 40, np.int64), np.zeros((M, C), np.int64)
-        # a view without a member keeps the 2D track it had (or adopted) before
-        vt = self.view_track
-        if vt and not has.all():
-            before = np.stack([vt.get(t, np.full(C, -1, np.int64)) for t in cur.track_id.tolist()])
-            ids = np.where(has, ids, before)
-        elif not has.all():
-            ids = np.where(has, ids, -1)
-        self.view_track = dict(zip(cur.track_id.tolist(), ids))
-        self.ends = (C, np.ascontiguousarray(ids, np.int64), last_obs, np.ascontiguousarray(cur.track_id, np.int64),
-                     lf, lx, lv)  # (spread per view only when a link is tried)
+        # a view without a member keeps the 2D track it had (or adopted) before (compiled)
+        if len(self.view_track):
+            ids = kernels.keep_views(members, ids, tid, self.view_ids, self.view_track)
+        else:
+            ids[members < 0] = -1
+        self.view_ids, self.view_track = tid, ids
+        self.ends = (C, ids, last_obs, tid, lf, lx, lv)  # (spread per view only when a link is tried)
 
     def step(self, start: int, rows: dict, iou: IoUTracker, seen: np.ndarray) -> None:
         """Before the window at ``start`` is cut: its new 2D tracks that continue a 3D track's
@@ -127,7 +124,8 @@ class MotionLinker:
             adopt = old < 0  # the view's first 2D track of this 3D track: kept as it is
             for k in np.flatnonzero(adopt).tolist():
                 t_o[r[k]] = new[c[k]]
-                self.view_track[int(tid[r[k]])][cam_o[r[k]]] = new[c[k]]
+                row = np.flatnonzero(self.view_ids == tid[r[k]])[-1]  # (its last row: as a dict of the rows)
+                self.view_track[row, cam_o[r[k]]] = new[c[k]]
             ren = ~adopt
             for o, nw in zip(old[ren].tolist(), new[c[ren]].tolist()):
                 track2d[track2d == nw] = o

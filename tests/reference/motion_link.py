@@ -89,3 +89,14 @@ def old_entries_numpy(C, ids, last_obs, track_id, lf, lx, lv):
     _, keep = np.unique(np.where(t_all >= 0, t_all, -1 - np.arange(len(t_all))), return_index=True)
     m = keep // C
     return keep % C, t_all[keep], last_obs.ravel()[keep], track_id[m], lf[m], lx[m], lv[m]
+
+
+def keep_views_numpy(members, ids, track_id, prev_track_id, prev_ids):
+    """MotionLinker.remember's views without a member, as it was: a dict of the previous rows."""
+    C = members.shape[1]
+    vt = dict(zip(prev_track_id.tolist(), prev_ids))
+    has = members >= 0
+    if vt and not has.all():
+        before = np.stack([vt.get(t, np.full(C, -1, np.int64)) for t in track_id.tolist()])
+        return np.where(has, ids, before)
+    return np.where(has, ids, -1)

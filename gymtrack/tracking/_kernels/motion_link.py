@@ -6,7 +6,7 @@ projected constant-velocity prediction and the view / gap gates -- in one call i
 numpy calls (the arrays are a window's: ~15 old entries, ~3 new tracks). :func:`window_ends`:
 what :meth:`~gymtrack.tracking.motion_link.MotionLinker.remember` keeps per (tracklet, view);
 :func:`new_tracks`: a window's new 2D tracks; :func:`old_entries`: the previous window's, one
-entry per 2D track.
+entry per 2D track; :func:`keep_views`: the 2D track a view without a member keeps.
 The numpy code they replace is ``tests/reference/motion_link.py``; the arithmetic is written in
 the reference's order (numpy's einsum order, no fused multiply-add), so the results are the same to the last bit and
 the links never change.
@@ -193,6 +193,27 @@ def old_entries(C, ids, last_obs, track_id, lf, lx, lv):
     return cam, t, last, tid, f, x, v
 
 
+@njit(cache=True, error_model="numpy")
+def keep_views(members, ids, track_id, prev_track_id, prev_ids):
+    """In place: where a tracklet (M) has no member in a view (``members`` (M, C) < 0), ``ids``
+    (M, C) gets the 2D track its 3D track ``track_id`` had there in the previous window
+    (``prev_ids`` (P, C) of ``prev_track_id`` (P,); the last row of an id, as a dict built from
+    the rows keeps), else -1."""
+    M, C = members.shape
+    for m in range(M):
+        j = -1
+        for c in range(C):
+            if members[m, c] >= 0:
+                continue
+            if j == -1:
+                j = -2  # looked up once per row
+                for q in range(len(prev_track_id)):
+                    if prev_track_id[q] == track_id[m]:
+                        j = q
+            ids[m, c] = prev_ids[j, c] if j >= 0 else -1
+    return ids
+
+
 def warm_up() -> None:
     """Compile (or load) the kernels on a tiny input of the tracker's argument types."""
     xyz = np.zeros((1, 4, 3))
@@ -203,5 +224,6 @@ def warm_up() -> None:
     P = np.zeros((1, 3, 4))
     P[0, 0, 0] = P[0, 1, 1] = P[0, 2, 2] = P[0, 2, 3] = 1.0
     new_tracks(i1, i1, 0, 4, 2, i1)
+    keep_views(np.full((1, 2), -1, np.int64), np.zeros((1, 2), np.int64), i1, i1, np.zeros((1, 2), np.int64))
     old_entries(2, np.zeros((1, 2), np.int64), np.zeros((1, 2), np.int64), i1, i1, np.zeros((1, 3)), np.zeros((1, 3)))
     link_costs(i1, i1, i1, np.ones((1, 4)), i1, i1, i1 - 1, i1, i1, np.zeros((1, 3)), np.zeros((1, 3)), P, 3, 5)
