@@ -139,24 +139,28 @@ def new_tracks(frame, track2d, start, stop, fresh_from, seen):
     ``start .. stop - 1`` whose first box there lies at ``fresh_from`` or later and which are
     not among ``seen`` (M,)."""
     a = np.searchsorted(frame, start)
+    f = np.searchsorted(frame, fresh_from)
     b = np.searchsorted(frame, stop)
-    ids = track2d[a:b]
-    order = np.argsort(ids, kind="mergesort")  # stable: a track's first row comes first
-    out = np.empty(len(ids), np.int64)
+    early = np.sort(track2d[a:min(f, b)])  # tracks with a box before fresh_from: not new
+    fresh = np.sort(track2d[max(f, a):b])
+    out = np.empty(len(fresh), np.int64)
     n = 0
-    for p in range(len(order)):
-        i = order[p]
-        if p > 0 and ids[i] == ids[order[p - 1]]:
+    e = 0
+    for p in range(len(fresh)):
+        t = fresh[p]
+        if p > 0 and t == fresh[p - 1]:
             continue
-        if frame[a + i] < fresh_from:
+        while e < len(early) and early[e] < t:
+            e += 1
+        if e < len(early) and early[e] == t:
             continue
-        fresh = True
+        new = True
         for q in range(len(seen)):
-            if seen[q] == ids[i]:
-                fresh = False
+            if seen[q] == t:
+                new = False
                 break
-        if fresh:
-            out[n] = ids[i]
+        if new:
+            out[n] = t
             n += 1
     return out[:n]
 
