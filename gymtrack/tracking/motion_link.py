@@ -117,6 +117,8 @@ class MotionLinker:
             # the view / gap gates: one compiled call (:func:`._kernels.motion_link.link_costs`)
             D = kernels.link_costs(frame, track2d, cam, ubox, new, cam_o, t_o, last_o, lf, lx, lv, self.P, FRAMES,
                                    self.max_gap)
+            if not (D <= self.gate).any():  # nothing within the gate (NaN compares False): no link
+                break
             r, c = link(D, self.gate)
             if not len(r):
                 break
