@@ -59,15 +59,18 @@ def _c(a: np.ndarray, dtype=None) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=dtype)
 
 
+def _space(performance_space) -> np.ndarray:
+    """(6,) float64 ``S_perf``, built once per scene (a tuple; any other sequence each call)
+    instead of per window; shared: the kernels only read it (writeable, so numba sees the
+    type its warm-up compiled)."""
+    if isinstance(performance_space, tuple):
+        return _space_of(performance_space)
+    return np.asarray(performance_space, dtype=np.float64)
+
+
 @lru_cache(maxsize=16)
-def _space(performance_space: tuple, buffer: float = 0.0) -> np.ndarray:
-    """(6,) float64 ``S_perf`` grown by ``buffer`` in x and y (``buffer``: ``S_track``, as
-    :attr:`~gymtrack.scene.Scene.tracking_space`), built once per scene instead of per window
-    (shared: the kernels only read it; writeable, so numba sees the type its warm-up compiled)."""
-    s = np.array(performance_space, dtype=np.float64)
-    if buffer:
-        s = s + np.array([-buffer, -buffer, 0.0, buffer, buffer, 0.0])
-    return s
+def _space_of(performance_space: tuple) -> np.ndarray:
+    return np.array(performance_space, dtype=np.float64)
 
 
 def _f64(a: np.ndarray) -> np.ndarray:
@@ -123,7 +126,7 @@ def floor_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | No
     fl, used = floor_stage(sub, rig, params.cluster_plane, _space(scene.performance_space), apart, labels)
     counts["segments_to_floor"] += int(np.count_nonzero(used))
     if len(fl):
-        bad = outliers(fl.xyz, fl.valid, _space(scene.performance_space, scene.buffer), params.max_speed)
+        bad = outliers(fl.xyz, fl.valid, np.asarray(scene.tracking_space, dtype=np.float64), params.max_speed)
         keep = np.flatnonzero(~bad)  # (integer takes: cheaper than a mask per column)
         if len(keep) < len(bad):  # Eq. 4, as for every 3D tracklet
             counts["tracklets_outliers"] += len(bad) - len(keep)
