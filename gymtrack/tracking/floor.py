@@ -69,8 +69,19 @@ def _space(performance_space) -> np.ndarray:
 
 
 @lru_cache(maxsize=16)
-def _space_of(performance_space: tuple) -> np.ndarray:
-    return np.array(performance_space, dtype=np.float64)
+def _space_of(performance_space: tuple, buffer: float = 0.0) -> np.ndarray:
+    s = np.array(performance_space, dtype=np.float64)
+    if buffer:  # S_track, computed as Scene.tracking_space computes it
+        s = s + np.array([-buffer, -buffer, 0.0, buffer, buffer, 0.0])
+    return s
+
+
+def _tracking_space(scene) -> np.ndarray:
+    """(6,) ``S_track`` of a scene (:attr:`~gymtrack.scene.Scene.tracking_space`), once per scene."""
+    ps, buffer = scene.performance_space, getattr(scene, "buffer", None)
+    if isinstance(ps, tuple) and isinstance(buffer, (int, float)):
+        return _space_of(ps, float(buffer))
+    return np.asarray(scene.tracking_space, dtype=np.float64)
 
 
 def _f64(a: np.ndarray) -> np.ndarray:
@@ -126,7 +137,7 @@ def floor_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | No
     fl, used = floor_stage(sub, rig, params.cluster_plane, _space(scene.performance_space), apart, labels)
     counts["segments_to_floor"] += int(np.count_nonzero(used))
     if len(fl):
-        bad = outliers(fl.xyz, fl.valid, np.asarray(scene.tracking_space, dtype=np.float64), params.max_speed)
+        bad = outliers(fl.xyz, fl.valid, _tracking_space(scene), params.max_speed)
         keep = np.flatnonzero(~bad)  # (integer takes: cheaper than a mask per column)
         if len(keep) < len(bad):  # Eq. 4, as for every 3D tracklet
             counts["tracklets_outliers"] += len(bad) - len(keep)

@@ -55,7 +55,7 @@ class MotionLinker:
 
     def __init__(self, P: np.ndarray, step: int, width: int, max_gap: int, max_speed: float, counts: dict,
                  gate: float = GATE):
-        self.P, self.step_frames, self.width = np.asarray(P, np.float64), int(step), int(width)
+        self.P, self.step_frames, self.width = np.ascontiguousarray(P, np.float64), int(step), int(width)
         self.max_gap, self.max_speed, self.counts, self.gate = int(max_gap), float(max_speed), counts, float(gate)
         self.start: int | None = None  # the previous window's start
         # the previous window's tracklets (M): the views C, per (tracklet, view) the view's 2D
@@ -108,9 +108,12 @@ class MotionLinker:
         self.counts["new_2d_tracks_unlinked"] += len(new) - linked
 
     def _link(self, new: np.ndarray, frame: np.ndarray, track2d: np.ndarray, rows: dict, iou: IoUTracker) -> int:
+        cam, ubox = np.ascontiguousarray(rows["camera"], np.int64), np.ascontiguousarray(rows["ubox"], np.float64)
+        D = kernels.first_costs(*self.ends, frame, track2d, cam, ubox, new, self.P, FRAMES, self.max_gap)
+        if not (D <= self.gate).any():  # the usual case: nothing to link, one compiled call
+            return 0
         # one entry per old 2D track: its view, 2D track, last frame seen, 3D track and end (compiled)
         cam_o, t_o, last_o, tid, lf, lx, lv = kernels.old_entries(*self.ends)
-        cam, ubox = np.ascontiguousarray(rows["camera"], np.int64), np.ascontiguousarray(rows["ubox"], np.float64)
         linked = 0
         for _ in range(self.step_frames):  # a track broken again in one window: the next piece joins in the next round
             # the old tracks' last boxes, the new ones' first boxes, the prediction's offset and

@@ -6,7 +6,8 @@ projected constant-velocity prediction and the view / gap gates -- in one call i
 numpy calls (the arrays are a window's: ~15 old entries, ~3 new tracks). :func:`window_ends`:
 what :meth:`~gymtrack.tracking.motion_link.MotionLinker.remember` keeps per (tracklet, view);
 :func:`new_tracks`: a window's new 2D tracks; :func:`old_entries`: the previous window's, one
-entry per 2D track; :func:`keep_views`: the 2D track a view without a member keeps.
+entry per 2D track; :func:`keep_views`: the 2D track a view without a member keeps; :func:`first_costs`: the first
+round in one call.
 The numpy code they replace is ``tests/reference/motion_link.py``; the arithmetic is written in
 the reference's order (numpy's einsum order, no fused multiply-add), so the results are the same to the last bit and
 the links never change.
@@ -218,6 +219,14 @@ def keep_views(members, ids, track_id, prev_track_id, prev_ids):
     return ids
 
 
+@njit(cache=True, error_model="numpy")
+def first_costs(C, ids, last_obs, track_id, lf, lx, lv, frame, track2d, camera, ubox, new, P, n, max_gap):
+    """:func:`link_costs` of the first round straight from the previous window's ends
+    (:func:`old_entries`' arguments): one call where, as usually, nothing links."""
+    cam_o, t_o, last_o, _, f, x, v = old_entries(C, ids, last_obs, track_id, lf, lx, lv)
+    return link_costs(frame, track2d, camera, ubox, new, cam_o, t_o, last_o, f, x, v, P, n, max_gap)
+
+
 def warm_up() -> None:
     """Compile (or load) the kernels on a tiny input of the tracker's argument types."""
     xyz = np.zeros((1, 4, 3))
@@ -230,4 +239,6 @@ def warm_up() -> None:
     new_tracks(i1, i1, 0, 4, 2, i1)
     keep_views(np.full((1, 2), -1, np.int64), np.zeros((1, 2), np.int64), i1, i1, np.zeros((1, 2), np.int64))
     old_entries(2, np.zeros((1, 2), np.int64), np.zeros((1, 2), np.int64), i1, i1, np.zeros((1, 3)), np.zeros((1, 3)))
+    first_costs(2, np.zeros((1, 2), np.int64), np.zeros((1, 2), np.int64), i1, i1, np.zeros((1, 3)), np.zeros((1, 3)),
+                i1, i1, i1, np.ones((1, 4)), i1, P, 3, 5)
     link_costs(i1, i1, i1, np.ones((1, 4)), i1, i1, i1 - 1, i1, i1, np.zeros((1, 3)), np.zeros((1, 3)), P, 3, 5)
