@@ -8,7 +8,9 @@ import cv2
 import numpy as np
 
 from conftest import make_detections, ring_rig, simple_scene
-from gymtrack.tracking.motion_link import first_boxes, motion_distances
+from gymtrack.tracking._kernels import motion_link as kernels
+from reference.motion_link import (first_boxes, link_costs_numpy, motion_distances, new_tracks_numpy,
+                                   keep_views_numpy, old_entries_numpy, window_ends_numpy)
 from gymtrack.tracking.offline import track_detections
 
 
@@ -84,3 +86,102 @@ def test_iou_tracker_rename_continues_the_old_id():
     assert sorted(t.track_id.tolist()) == sorted([a[0], a[1]])
     c = t.update(2, np.array([0, 0]), np.array([[165.0, 100, 40, 100], [400, 100, 40, 100]]))
     assert c.tolist() == [a[0], a[1]]
+
+
+def _random_round(rng, N=60, L=14, T=4, C=4):
+    """Rows of a window (frame order) with old entries and new tracks, some prediction behind a camera."""
+    frame = np.sort(rng.integers(100, 112, N))
+    track2d = rng.integers(0, 12, N)
+    camera = track2d % C
+    ubox = np.c_[rng.uniform(200, 1700, (N, 2)), rng.uniform(20, 200, (N, 2))]
+    ubox[rng.random(N) < 0.05, 2] = 0.0  # a zero-width box: an infinite offset, as in numpy
+    new = np.sort(rng.choice(np.arange(6, 14), T, replace=False))  # 12, 13: no rows
+    t_o = rng.choice(np.r_[-1, np.arange(6)], L, replace=False) if L <= 7 else np.r_[np.arange(6), np.full(L - 6, -1)]
+    cam_o = rng.integers(0, C, L)
+    last_o = rng.integers(95, 108, L)
+    lf = rng.integers(98, 106, L)
+    lx = rng.uniform(-3, 3, (L, 3))
+    lv = rng.normal(0, 0.2, (L, 3))
+    P = rng.normal(0, 1, (C, 3, 4)) * 100
+    return frame, track2d, camera, ubox, new, cam_o, t_o, last_o, lf, lx, lv, P
+
+
+def test_link_costs_kernel_equals_numpy_reference_bitwise():
+    rng = np.random.default_rng(3)
+    finite = 0
+    for _ in range(200):
+        args = _random_round(rng)
+        D = kernels.link_costs(*args, 3, 5)
+        R = link_costs_numpy(*args, 3, 5)
+        assert np.array_equal(D, R, equal_nan=True)  # same bits: the links can never differ
+        finite += np.isfinite(D).sum()
+    assert finite > 100  # the comparison saw real costs, not only gated pairs
+
+
+def test_window_ends_kernels_equal_numpy_reference_bitwise():
+    rng = np.random.default_rng(4)
+    for _ in range(100):
+        M, W, C, K = 7, 10, 4, 9
+        valid = rng.random((M, W)) < 0.6
+        valid[np.arange(M), rng.integers(0, W, M)] = True
+        xyz = rng.normal(0, 2, (M, W, 3))
+        members = np.where(rng.random((M, C)) < 0.7, rng.integers(0, K, (M, C)), -1)
+        observed = rng.random((K, W)) < 0.5
+        ref = window_ends_numpy(xyz, valid, 40, 0.25, members, observed, 40)
+        got = kernels.tracklet_ends(xyz, valid, 40, 0.25) + (kernels.last_observed(members, observed, 40),)
+        for a, b in zip(got, ref):
+            assert a.dtype == b.dtype and np.array_equal(a, b)
+
+
+def test_new_tracks_kernel_equals_numpy_reference():
+    rng = np.random.default_rng(6)
+    found = 0
+    for _ in range(200):
+        frame = np.sort(rng.integers(90, 115, 80))
+        track2d = rng.integers(0, 30, 80)
+        seen = rng.choice(30, rng.integers(0, 10), replace=False)
+        got = kernels.new_tracks(frame, track2d, 100, 110, 105, seen)
+        want = new_tracks_numpy(frame, track2d, 100, 110, 105, seen)
+        assert got.dtype == want.dtype and np.array_equal(got, want)
+        found += len(got)
+    assert found > 100
+
+
+def test_old_entries_kernel_equals_numpy_reference():
+    rng = np.random.default_rng(8)
+    for _ in range(200):
+        M, C = int(rng.integers(1, 12)), 4
+        ids = np.where(rng.random((M, C)) < 0.7, rng.integers(0, 20, (M, C)), -1)  # shared ids: one entry each
+        last_obs, tid, lf = rng.integers(0, 99, (M, C)), rng.permutation(50)[:M], rng.integers(0, 99, M)
+        lx, lv = rng.normal(size=(M, 3)), rng.normal(size=(M, 3))
+        got = kernels.old_entries(C, ids, last_obs, tid, lf, lx, lv)
+        for a, b in zip(got, old_entries_numpy(C, ids, last_obs, tid, lf, lx, lv)):
+            assert a.dtype == b.dtype and np.array_equal(a, b)
+
+
+def test_keep_views_kernel_equals_numpy_reference():
+    rng = np.random.default_rng(9)
+    for _ in range(200):
+        M, P, C = int(rng.integers(1, 10)), int(rng.integers(1, 10)), 4
+        members = np.where(rng.random((M, C)) < 0.6, rng.integers(0, 30, (M, C)), -1)
+        ids = rng.integers(0, 50, (M, C))
+        track_id = rng.integers(0, 12, M)
+        prev_track_id = rng.integers(0, 12, P)  # repeated ids: the last row counts, as in a dict
+        prev_ids = rng.integers(-1, 50, (P, C))
+        want = keep_views_numpy(members, ids, track_id, prev_track_id, prev_ids)
+        got = kernels.keep_views(members, ids.copy(), track_id, prev_track_id, prev_ids)
+        assert np.array_equal(got, want)
+
+
+def test_first_costs_equal_the_reference_round_from_the_ends():
+    rng = np.random.default_rng(10)
+    for _ in range(100):
+        M, C = int(rng.integers(1, 8)), 4
+        ids = np.where(rng.random((M, C)) < 0.7, rng.integers(0, 6, (M, C)), -1)
+        ends = (C, ids, rng.integers(95, 108, (M, C)), rng.permutation(50)[:M], rng.integers(98, 106, M),
+                rng.uniform(-3, 3, (M, 3)), rng.normal(0, 0.2, (M, 3)))
+        frame, track2d, camera, ubox, new, *_, P = _random_round(rng)
+        got = kernels.first_costs(*ends, frame, track2d, camera, ubox, new, P, 3, 5)
+        cam_o, t_o, last_o, _, lf, lx, lv = old_entries_numpy(*ends)
+        want = link_costs_numpy(frame, track2d, camera, ubox, new, cam_o, t_o, last_o, lf, lx, lv, P, 3, 5)
+        assert np.array_equal(got, want, equal_nan=True)

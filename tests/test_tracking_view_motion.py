@@ -11,6 +11,8 @@ from conftest import make_detections, ring_rig
 from gymtrack.errors import InputError
 from gymtrack.formats.scene import scene_from_dict
 from gymtrack.tracking.exclusion import too_close
+from reference.exclusion import too_close_numpy
+from reference.records import superseded_numpy
 from gymtrack.tracking.offline import track_detections
 from gymtrack.tracking.records import MemberRows, superseded
 from gymtrack.tracking.single_view import IoUTracker, iou_matrix
@@ -146,6 +148,22 @@ def test_too_close_against_brute_force():
         too_close(frame, tid, xyz, 0.0)
 
 
+def test_too_close_kernel_equals_numpy_reference():
+    rng = np.random.default_rng(5)
+    for n in (2, 50, 900):  # 900: the reference's frame-by-frame path
+        frame = rng.integers(0, max(2, n // 15), n)
+        tid = rng.integers(0, n // 3 + 2, n)  # repeated ids: a track is never close to itself
+        xyz = rng.uniform(0, 2, (n, 3))
+        xyz[rng.random(n) < 0.05] = np.nan
+        assert np.array_equal(too_close(frame, tid, xyz, 0.5), too_close_numpy(frame, tid, xyz, 0.5))
+        skip = rng.random(n) < 0.2  # left out points: as if they were not there
+        rest = np.flatnonzero(~skip)
+        want = np.zeros(n, bool)
+        want[rest] = too_close_numpy(frame[rest], tid[rest], xyz[rest], 0.5)
+        got = too_close(frame, tid, xyz, 0.5, skip=skip)
+        assert np.array_equal(got, want) and (n < 50 or 0 < got.sum() < n)
+
+
 def test_superseded_when_a_later_window_took_every_box():
     # detections 1, 2 (frame 5) were track 7's in window 0; window 1 gave 1 to track 9 and 2 to
     # track 7 again; detection 3 (frame 6) went from track 7 (window 0) to track 9 (window 1)
@@ -157,3 +175,19 @@ def test_superseded_when_a_later_window_took_every_box():
     window = np.array([0, 0, 1, 0])
     # (5, 7, w0) keeps detection 2; (6, 7, w0) lost its only one; (6, 9, w1) won it; (4, 7, w0): no detections
     assert superseded(frame, track, window, mem).tolist() == [False, True, False, False]
+
+
+def test_superseded_kernel_equals_numpy_reference():
+    rng = np.random.default_rng(7)
+    hits = 0
+    for _ in range(200):
+        m = int(rng.integers(0, 60))
+        det = rng.integers(0, 25, m)  # a detection in one or more windows, one frame per detection
+        mem = MemberRows(det=det, frame=100 + det % 5, camera=det % 3, track_id=rng.integers(0, 6, m),
+                         window=rng.integers(0, 3, m))
+        n = 40
+        frame, track, window = rng.integers(99, 106, n), rng.integers(0, 7, n), rng.integers(0, 3, n)
+        got = superseded(frame, track, window, mem)
+        assert np.array_equal(got, superseded_numpy(frame, track, window, mem))
+        hits += got.sum()
+    assert hits > 20

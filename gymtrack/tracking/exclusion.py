@@ -31,37 +31,28 @@ import numpy as np
 
 from ..detections import Detections
 from ..errors import InputError
+from ._kernels import exclusion as kernels
 from .types import Tracks3D
 
 #: metres between two body centres below which they are one person (about a shoulder width)
 MIN_SEPARATION = 0.5
-DENSE = 400  #: up to this many points all pairs are compared in one (n, n) matrix
 
 
-def too_close(frame: np.ndarray, track_id: np.ndarray, xyz: np.ndarray, min_separation: float = MIN_SEPARATION
-              ) -> np.ndarray:
+def too_close(frame: np.ndarray, track_id: np.ndarray, xyz: np.ndarray, min_separation: float = MIN_SEPARATION,
+              skip: np.ndarray | None = None) -> np.ndarray:
     """(N,) bool: the points (frame (N,), track_id (N,), xyz (N, 3)) closer than ``min_separation``
-    to a point of an older track (smaller id) in the same frame. NaN points are never close."""
+    to a point of an older track (smaller id) in the same frame. NaN points are never close.
+    ``skip`` (N,) bool: points left out (never close, never compared with). One compiled pass
+    per frame (:func:`._kernels.exclusion.too_close`)."""
     if not min_separation > 0:
         raise InputError(f"min_separation must be a positive number of metres, got {min_separation!r}",
                          field="min_separation")
     n = len(frame)
-    out = np.zeros(n, bool)
     if n < 2:
-        return out
-    if n <= DENSE:  # every pair at once: a few numpy calls (the usual case, a few frames of people)
-        d2 = np.zeros((n, n))
-        for k in range(xyz.shape[1]):
-            diff = xyz[:, k][:, None] - xyz[:, k][None, :]
-            d2 += diff * diff
-        with np.errstate(invalid="ignore"):
-            hit = (d2 < min_separation * min_separation) & (frame[:, None] == frame[None, :])
-        hit &= track_id[None, :] < track_id[:, None]
-        return hit.any(axis=1)
-    for f in np.unique(frame):  # a long stretch (the end of a stream): frame by frame
-        at = np.flatnonzero(frame == f)
-        out[at] = too_close(frame[at], track_id[at], xyz[at], min_separation)
-    return out
+        return np.zeros(n, bool)
+    skip = np.zeros(n, bool) if skip is None else np.ascontiguousarray(skip, bool)
+    return kernels.too_close(np.ascontiguousarray(frame, np.int64), np.ascontiguousarray(track_id, np.int64),
+                             np.ascontiguousarray(xyz, np.float64), skip, float(min_separation) * float(min_separation))
 
 
 def suppress_duplicates(tracks: Tracks3D, boxes: Detections, counts: dict, gone: np.ndarray | None = None,
@@ -71,15 +62,16 @@ def suppress_duplicates(tracks: Tracks3D, boxes: Detections, counts: dict, gone:
     :func:`too_close` says duplicate an older track; the latter counted in
     ``counts["points_suppressed"]``."""
     drop = np.zeros(len(tracks), bool) if gone is None else gone.copy()
-    rest = np.flatnonzero(~drop)
-    close = too_close(tracks.frame[rest], tracks.track_id[rest], tracks.xyz[rest], min_separation)
-    drop[rest[close]] = True
-    counts["points_suppressed"] += int(close.sum())
+    close = too_close(tracks.frame, tracks.track_id, tracks.xyz, min_separation, skip=drop)
+    drop |= close
+    counts["points_suppressed"] += int(np.count_nonzero(close))
     if not drop.any():
         return tracks, boxes
     if len(boxes):
         span = int(max(tracks.track_id.max(), boxes.track_id.max())) + 1
-        gone = np.isin(boxes.frame * span + boxes.track_id, tracks.frame[drop] * span + tracks.track_id[drop])
+        key = np.sort(tracks.frame[drop] * span + tracks.track_id[drop])  # (np.isin, by one binary search)
+        box_key = boxes.frame * span + boxes.track_id
+        gone = key[np.minimum(np.searchsorted(key, box_key), len(key) - 1)] == box_key
         if gone.any():
             boxes = boxes.select(~gone)
     return tracks.select(~drop), boxes

@@ -36,6 +36,8 @@ ray-plane intersection) where observed.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from ..geometry.arrays import PlaneArrays, RigArrays
@@ -59,6 +61,31 @@ def _rules(threshold: float) -> kernels.FloorRules:
 
 def _c(a: np.ndarray, dtype=None) -> np.ndarray:
     return np.ascontiguousarray(a, dtype=dtype)
+
+
+def _space(performance_space) -> np.ndarray:
+    """(6,) float64 ``S_perf``, built once per scene (a tuple; any other sequence each call)
+    instead of per window; shared: the kernels only read it (writeable, so numba sees the
+    type its warm-up compiled)."""
+    if isinstance(performance_space, tuple):
+        return _space_of(performance_space)
+    return np.asarray(performance_space, dtype=np.float64)
+
+
+@lru_cache(maxsize=16)
+def _space_of(performance_space: tuple, buffer: float = 0.0) -> np.ndarray:
+    s = np.array(performance_space, dtype=np.float64)
+    if buffer:  # S_track, computed as Scene.tracking_space computes it
+        s = s + np.array([-buffer, -buffer, 0.0, buffer, buffer, 0.0])
+    return s
+
+
+def _tracking_space(scene) -> np.ndarray:
+    """(6,) ``S_track`` of a scene (:attr:`~gymtrack.scene.Scene.tracking_space`), once per scene."""
+    ps, buffer = scene.performance_space, getattr(scene, "buffer", None)
+    if isinstance(ps, tuple) and isinstance(buffer, (int, float)):
+        return _space_of(ps, float(buffer))
+    return np.asarray(scene.tracking_space, dtype=np.float64)
 
 
 def _f64(a: np.ndarray) -> np.ndarray:
@@ -107,19 +134,21 @@ def floor_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | No
     C = len(rig.K)
     n_plane = len(to_plane)
     if floor_only is not None and len(floor_only):
-        to_plane = np.r_[to_plane, floor_only]
+        to_plane = np.concatenate([to_plane, floor_only])
     sub = segs.subset(to_plane)
-    apart = None if D2 is None else D2[np.ix_(to_plane, to_plane)] >= params.cluster_2d
+    apart = None if D2 is None else D2[to_plane][:, to_plane] >= params.cluster_2d  # (two takes: cheaper than np.ix_)
     labels = np.unique(sub.track2d // C, return_inverse=True)[1] if oracle else None
-    space = np.asarray(scene.performance_space, dtype=np.float64)
-    fl, used = floor_stage(sub, rig, params.cluster_plane, space, apart, labels)
-    counts["segments_to_floor"] += int(used.sum())
+    fl, used = floor_stage(sub, rig, params.cluster_plane, _space(scene.performance_space), apart, labels)
+    counts["segments_to_floor"] += int(np.count_nonzero(used))
     if len(fl):
-        bad = outliers_by_place(fl.xyz, fl.valid, np.asarray(scene.tracking_space, dtype=np.float64), params.max_speed)
-        if bad.any():  # Eq. 4, as for every 3D tracklet
-            counts["tracklets_outliers"] += int(bad.sum())
-            fl = fl.subset(~bad)
-        fl = fl.with_members(np.where(fl.members >= 0, to_plane[np.maximum(fl.members, 0)], -1))
+        bad = outliers_by_place(fl.xyz, fl.valid, _tracking_space(scene), params.max_speed)
+        keep = np.flatnonzero(~bad)  # (integer takes: cheaper than a mask per column)
+        if len(keep) < len(bad):  # Eq. 4, as for every 3D tracklet
+            counts["tracklets_outliers"] += len(bad) - len(keep)
+        m = fl.members[keep]
+        fl = WindowTracklets3D(fl.start, fl.xyz[keep], fl.top_z[keep], fl.bottom_z[keep], fl.valid[keep],
+                               fl.source[keep], fl.n_views[keep], np.where(m >= 0, to_plane[np.maximum(m, 0)], -1),
+                               fl.track_id[keep])
         counts["floor_tracklets"] += len(fl)
     rest = ~used
     if rest[n_plane:].any():
@@ -157,7 +186,7 @@ def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig:
     ghost = kernels.ghost_test(
         _c(tri.members, np.int64), _c(tri.valid), _f64(tri.bottom_z), _f64(tri.xyz), _f64(segs.box), _c(segs.valid),
         _c(segs.observed), _c(segs.camera, np.int64), rig, PlaneArrays.from_planes(planes),
-        _f64(scene.performance_space), AIR, MIN_COS, _rules(params.cluster_plane))
+        _space(scene.performance_space), AIR, MIN_COS, _rules(params.cluster_plane))
     if owner is not None and ghost.any():  # a pair already one track's in the last window is confirmed
         owner = owner() if callable(owner) else owner  # (the tracker's look-up: only when needed)
         o = np.where(tri.members >= 0, owner[np.maximum(tri.members, 0)], -2)

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..geometry.camera import Rig
+from ._kernels import records as kernels
 from .linking import merge_overlaps
 from .types import Tracks3D, WindowTracklets, WindowTracklets3D
 from .undistort import UndistortTables
@@ -135,31 +136,21 @@ def _concat_estimates(parts: list[Tracks3D]) -> Tracks3D:
     return parts[0] if len(parts) == 1 else Tracks3D.concat(parts)
 
 
-def superseded(frame: np.ndarray, track_id: np.ndarray, window: np.ndarray, members: MemberRows) -> np.ndarray:
+def superseded(frame: np.ndarray, track_id: np.ndarray, window: np.ndarray, members: MemberRows,
+               order: np.ndarray | None = None) -> np.ndarray:
     """(n,) bool: estimates (frame, track_id, window) (n,) that had member detections in their
     frame and lost all of them to another track (each detection goes to the latest window's
     track, as in :meth:`WindowRecords.boxes`). Estimates without detections in their frame
-    (interpolated or held boxes) are never superseded."""
-    det, win, tid = members.det, members.window, members.track_id
-    if not len(det) or not len(frame):
+    (interpolated or held boxes) are never superseded. ``order``: ``np.lexsort((-window, det))``
+    of the members when the caller has it. One compiled call (:func:`._kernels.records.superseded`)."""
+    if not len(members) or not len(frame):
         return np.zeros(len(frame), bool)
-    order = np.lexsort((-win, det))  # per detection, the latest window first
-    d = det[order]
-    first = np.ones(len(d), bool)
-    np.not_equal(d[1:], d[:-1], out=first[1:])
-    t = tid[order]
-    if not np.any(~first[1:] & (t[1:] != t[:-1])):  # no detection changed track: nothing superseded
-        return np.zeros(len(frame), bool)
-    winner = np.repeat(t[first], np.diff(np.append(np.flatnonzero(first), len(d))))
-    kept = np.empty(len(det), bool)
-    kept[order] = winner == t
-    # per (frame, track, window) of the members: does any member detection still belong to it?
-    span = int(max(window.max(), win.max())) + 1
-    tspan = int(max(track_id.max(), tid.max())) + 1
-    key_m = (members.frame * tspan + tid) * span + win
-    key_e = (frame * tspan + track_id) * span + window
-    has = np.isin(key_e, key_m)
-    return has & ~np.isin(key_e, key_m[kept])
+    if order is None:
+        order = np.lexsort((-members.window, members.det))  # per detection, the latest window first
+    i64 = np.ascontiguousarray
+    return kernels.superseded(i64(frame, np.int64), i64(track_id, np.int64), i64(window, np.int64),
+                              i64(members.det, np.int64), i64(members.frame, np.int64),
+                              i64(members.track_id, np.int64), i64(members.window, np.int64), i64(order, np.int64))
 
 
 class WindowRecords:
@@ -177,6 +168,7 @@ class WindowRecords:
         self._estimates: list[Tracks3D] = []
         self._windows: list[np.ndarray] = []  # the window index of every estimate (parallel to _estimates)
         self._members: list[MemberRows] = []
+        self._sorted: tuple | None = None  # (members, upto, final, final rows, their sort): shared with boxes()
 
     def __len__(self) -> int:
         return sum(len(r) for r in self._estimates) + sum(len(r) for r in self._members)
@@ -218,7 +210,11 @@ class WindowRecords:
         if self.superseded and self._members and len(out):
             mem = MemberRows.concat(self._members)
             self._members = [mem]  # (boxes() would concatenate them again)
-            est = superseded(r.frame, r.track_id, win[done], mem.select(mem.frame <= upto))
+            final = mem.frame <= upto
+            sel = mem.select(final)
+            order = np.lexsort((-sel.window, sel.det))  # per detection, the latest window first
+            self._sorted = (mem, upto, final, sel, order)  # boxes(upto) next needs the same rows and sort
+            est = superseded(r.frame, r.track_id, win[done], sel, order)
             if est.any():  # a point is gone when none of its estimates kept a detection
                 span = int(out.track_id.max()) + 1
                 gone = ~np.isin(out.frame * span + out.track_id, r.frame[~est] * span + r.track_id[~est])
@@ -233,9 +229,13 @@ class WindowRecords:
         if not self._members:
             return None
         rows = MemberRows.concat(self._members)
-        done = rows.frame <= upto
+        cached, self._sorted = self._sorted, None
+        if cached is not None and cached[0] is rows and cached[1] == upto:  # tracks_superseded sorted them
+            done, r, order = cached[2], cached[3], cached[4]
+        else:
+            done = rows.frame <= upto
+            r, order = rows.select(done), None
         self._members = [rows.select(~done)] if not done.all() else []
-        r = rows.select(done)
         det, frame, cam, tid, win = r.det, r.frame, r.camera, r.track_id, r.window
 
         def group_starts(keys):  # sorted keys -> True at the first row of every run of equal keys
@@ -245,7 +245,8 @@ class WindowRecords:
 
         # two stable sorts, each keeping the first row of every group (cheaper than np.unique):
         # per detection the latest window (ties: the earlier record) ...
-        order = np.lexsort((-win, det))
+        if order is None:
+            order = np.lexsort((-win, det))
         first = order[group_starts(det[order])]
         det, frame, cam, tid = det[first], frame[first], cam[first], tid[first]
         # ... then per (frame, view, track) the smallest detection; the result is in
