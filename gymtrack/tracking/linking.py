@@ -311,8 +311,10 @@ class WindowLinker:
         young one is lost. Trade: two people who really met within ``link_3d`` of each other while
         one of them had just appeared may swap ids."""
         prev = self.prev
-        on = member(prev.track_id, ids[ids >= 0])
         older = prev.track_id < self._prev_first_new
+        if older.all() or not older.any():  # no young track, or none older: nothing to merge
+            return
+        on = member(prev.track_id, ids[ids >= 0])
         old, young = np.flatnonzero(~on & older), np.flatnonzero(on & ~older)
         if not len(old) or not len(young):
             return
