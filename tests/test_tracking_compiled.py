@@ -241,3 +241,22 @@ def test_merge_overlaps_kernel(rng, n, best_only):
     for f in ("frame", "track_id", "xyz", "top_z", "bottom_z", "source", "n_views"):
         g, w = getattr(got, f), getattr(want, f)
         assert g.dtype == w.dtype and np.array_equal(g, w, equal_nan=True), f  # bit-identical
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_link_by_2d_kernel(seed):
+    # cascade+'s link by 2D tracks: compiled vs numpy on random windows (few ids: many hits, ties and conflicts)
+    from gymtrack.tracking._kernels.linking import link_by_2d
+    from reference.linking import link_by_2d_numpy
+    rng = np.random.default_rng(seed)
+    M, C, K = 8, 4, 12
+    members = np.where(rng.random((M, C)) < 0.5, rng.integers(0, K, (M, C)), -1).astype(np.int64)
+    track2d = rng.integers(0, 8, K).astype(np.int64)
+    prev_2d = rng.permutation(8)[:7].astype(np.int64)
+    prev_owner = rng.integers(0, 3, 7).astype(np.int64) // 2  # (mostly one owner: links are made)
+    ids = np.where(rng.random(M) < 0.2, rng.integers(0, 3, M), -1).astype(np.int64)
+    rows = np.flatnonzero((members >= 0).sum(1) >= 1)
+    a, b = ids.copy(), ids.copy()
+    assert link_by_2d(rows, members, track2d, prev_2d, prev_owner, a) == link_by_2d_numpy(
+        rows, members, track2d, prev_2d, prev_owner, b)
+    assert np.array_equal(a, b)

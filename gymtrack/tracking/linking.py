@@ -292,7 +292,9 @@ class WindowLinker:
         for k, group in enumerate((~solo, solo) if solo.any() else (None,)):
             cols = np.flatnonzero(ids < 0) if group is None else np.flatnonzero(group & (ids < 0))
             # the first pass may link any previous tracklet, the second only those still free
-            free = (np.flatnonzero(~member(prev.track_id, ids)) if k or self.by_2d else np.arange(len(prev))) if chained else []
+            # (by_2d: only once a link by 2D tracks took one)
+            free = (np.flatnonzero(~member(prev.track_id, ids)) if k or (self.by_2d and (ids >= 0).any())
+                    else np.arange(len(prev))) if chained else []
             if len(cols) and len(free):
                 r, c = link(link_distances(prev.xyz[free], prev.valid[free], cur.xyz[cols], cur.valid[cols],
                                            self.window_step), self.link_3d)
@@ -326,15 +328,11 @@ class WindowLinker:
     def _link_by_2d(self, cur: WindowTracklets3D, ids: np.ndarray) -> None:
         """Floor tracklets of two or more views whose 2D tracks all belonged to one previous track
         (one tracklet per track: the first) continue it (written into ``ids``)."""
-        track2d = self._track2d
-        for m in np.flatnonzero(self._floor & ((cur.members >= 0).sum(1) >= 2)).tolist():
-            t2 = track2d[cur.members[m][cur.members[m] >= 0]]
-            at = np.flatnonzero(member(self.prev_2d, t2))
-            if len(at) == len(t2) and len(np.unique(self.prev_owner[at])) == 1:
-                tid = int(self.prev_owner[at[0]])
-                if tid not in ids:
-                    ids[m] = tid
-                    self.counts["links_2d"] += 1
+        rows = np.flatnonzero(self._floor & ((cur.members >= 0).sum(1) >= 2))
+        if len(rows):  # one compiled loop (numpy: tests/reference/linking.py)
+            self.counts["links_2d"] += kernels.link_by_2d(
+                rows, np.ascontiguousarray(cur.members, np.int64), np.ascontiguousarray(self._track2d, np.int64),
+                np.ascontiguousarray(self.prev_2d, np.int64), np.ascontiguousarray(self.prev_owner, np.int64), ids)
 
     def _relink(self, cur: WindowTracklets3D, cols: np.ndarray, ids: np.ndarray) -> None:
         """Lost tracks continued by the tracklets ``cols`` (written into ``ids``)."""

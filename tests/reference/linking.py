@@ -56,3 +56,17 @@ def merge_overlaps_numpy(frame, track_id, xyz, top_z, bottom_z, source, n_views,
         frame[start], track_id[start], np.add.reduceat(xyz, start) / count[:, None], mean(top_z), mean(bottom_z),
         np.minimum.reduceat(source, start).astype(np.int8), np.maximum.reduceat(n_views, start).astype(np.int8),
     )
+
+
+def link_by_2d_numpy(rows, members, track2d, prev_2d, prev_owner, ids):
+    """tracking.linking.WindowLinker._link_by_2d before it was compiled: writes ``ids``, returns the links."""
+    links = 0
+    for m in rows.tolist():
+        t2 = track2d[members[m][members[m] >= 0]]
+        at = np.flatnonzero(np.isin(prev_2d, t2))
+        if len(at) == len(t2) and len(np.unique(prev_owner[at])) == 1:
+            tid = int(prev_owner[at[0]])
+            if tid not in ids:
+                ids[m] = tid
+                links += 1
+    return links

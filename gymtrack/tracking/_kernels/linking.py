@@ -4,6 +4,9 @@
 windows over their overlap; numpy reference in ``tests/reference/linking.py``.
 Shapes: xyz (M, W, 3), valid (M, W).
 
+:func:`link_by_2d`: ``cascade+``'s floor tracklets continuing their 2D tracks' track (issue 12),
+one loop instead of a few numpy calls per floor tracklet; numpy reference ``tests/reference/linking.py``.
+
 :func:`merge_overlaps`: Eq. 12, one point per (frame, track) from the window estimates covering
 it (with ``cascade+``'s ``best_only``, beyond the paper: issue 12) -- one stable sort and one pass
 over the groups instead of some twenty numpy calls per window; numpy reference
@@ -121,6 +124,43 @@ def merge_overlaps(frame, track_id, xyz, top_z, bottom_z, source, n_views, best_
         p = q
     return o_frame, o_track, o_xyz, o_top, o_bottom, o_source, o_views
 
+@njit(cache=True, error_model="numpy")
+def link_by_2d(rows, members, track2d, prev_2d, prev_owner, ids):
+    """``cascade+``'s link by 2D tracks (:meth:`gymtrack.tracking.linking.WindowLinker._link_by_2d`,
+    beyond the paper: issue 12): each tracklet ``rows`` (r,) in order, ``members`` (M, C), whose
+    2D tracks (``track2d`` (K,)) are all in ``prev_2d`` (n,) under one ``prev_owner`` (n,) continues
+    that track unless ``ids`` (M,) already holds it (written into ``ids``). Returns the links made."""
+    links = 0
+    C = members.shape[1]
+    for m in rows:
+        n_t2 = 0
+        for c in range(C):
+            if members[m, c] >= 0:
+                n_t2 += 1
+        count, owner, same = 0, -1, True
+        for p in range(len(prev_2d)):  # the previous window's entries of these 2D tracks
+            hit = False
+            for c in range(C):
+                if members[m, c] >= 0 and track2d[members[m, c]] == prev_2d[p]:
+                    hit = True
+                    break
+            if hit:
+                if count == 0:
+                    owner = prev_owner[p]
+                elif prev_owner[p] != owner:
+                    same = False
+                count += 1
+        if count == n_t2 and count > 0 and same:
+            taken = False
+            for i in range(len(ids)):
+                if ids[i] == owner:
+                    taken = True
+                    break
+            if not taken:
+                ids[m] = owner
+                links += 1
+    return links
+
 
 def warm_up() -> None:
     """Compile (or load) the kernel on the sample person's track, linked to itself."""
@@ -129,4 +169,6 @@ def warm_up() -> None:
     valid = np.ones((1, WIDTH), bool)
     link_distances(xyz, valid, xyz, valid, WIDTH // 2)
     f = np.array([3, 3, 4], np.int64)
+    ids = np.full(2, -1, np.int64)
+    link_by_2d(np.zeros(1, np.int64), np.array([[0, 1], [-1, 0]], np.int64), f, f, f, ids)
     merge_overlaps(f, f, np.zeros((3, 3)), np.ones(3), np.zeros(3), np.zeros(3, np.int8), np.ones(3, np.int8), True)
