@@ -274,9 +274,10 @@ class WindowLinker:
         ids[new] = self.next_track_id + np.arange(int(new.sum()))
         self.next_track_id += int(new.sum())
         cur = cur.with_track_id(ids)
-        self.prev_2d = track2d[cur.members[cur.members >= 0]]
+        has = cur.members >= 0
+        self.prev_2d = track2d[cur.members[has]]
         if self.by_2d:
-            self.prev_owner = np.broadcast_to(cur.track_id[:, None], cur.members.shape)[cur.members >= 0]
+            self.prev_owner = np.broadcast_to(cur.track_id[:, None], cur.members.shape)[has]
         self.prev_seen = track2d
         self._prev_first_new = first_new
         self._end_tracks(cur)
