@@ -141,29 +141,35 @@ def floor_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | No
     n_plane = len(to_plane)
     if floor_only is not None and len(floor_only):
         to_plane = np.concatenate([to_plane, floor_only])
-    # only the arrays the floor reads are taken (a full ``segs.subset`` copies seven)
+    if not len(to_plane):
+        return None, to_plane
+    # only the arrays the floor reads are taken (a full ``segs.subset`` copies seven), and the
+    # kernel's output becomes one WindowTracklets3D, after the outlier test (a few us a window)
     apart = None if D2 is None else D2[to_plane][:, to_plane] >= params.cluster_2d  # (two takes: cheaper than np.ix_)
     labels = np.unique(segs.track2d[to_plane] // C, return_inverse=True)[1] if oracle else None
-    fl, used = _floor_stage(segs.start, segs.box[to_plane], segs.valid[to_plane], segs.observed[to_plane],
-                            segs.camera[to_plane], rig, params.cluster_plane, _space(scene.performance_space), apart, labels)
+    xyz, top, bottom, valid, source, n_views, members, used = kernels.floor_stage(
+        _f64(segs.box[to_plane]), _c(segs.valid[to_plane]), _c(segs.observed[to_plane]), _c(segs.camera[to_plane], np.int64),
+        rig, _f64(_space(scene.performance_space)), kernels.NO_APART if apart is None else _c(apart, bool),
+        kernels.NO_GROUP if labels is None else _c(labels, np.int64), _rules(params.cluster_plane))
     counts["segments_to_floor"] += int(np.count_nonzero(used))
-    if len(fl):
-        bad = outliers_by_place(fl.xyz, fl.valid, _tracking_space(scene), params.max_speed)
+    fl = None
+    if len(members):
+        bad = outliers_by_place(xyz, valid, _tracking_space(scene), params.max_speed)
         if bad.any():  # Eq. 4, as for every 3D tracklet
             keep = np.flatnonzero(~bad)  # (integer takes: cheaper than a mask per column)
             counts["tracklets_outliers"] += len(bad) - len(keep)
-            m = fl.members[keep]
-            fl = WindowTracklets3D(fl.start, fl.xyz[keep], fl.top_z[keep], fl.bottom_z[keep], fl.valid[keep],
-                                   fl.source[keep], fl.n_views[keep], np.where(m >= 0, to_plane[np.maximum(m, 0)], -1),
-                                   fl.track_id[keep])
-        else:  # (no takes when every tracklet passed)
-            fl = fl.with_members(np.where(fl.members >= 0, to_plane[np.maximum(fl.members, 0)], -1))
-        counts["floor_tracklets"] += len(fl)
+            xyz, top, bottom, valid, source, n_views, members = (
+                a[keep] for a in (xyz, top, bottom, valid, source, n_views, members))
+        if len(members):
+            fl = WindowTracklets3D(segs.start, xyz, top, bottom, valid, source, n_views,
+                                   np.where(members >= 0, to_plane[np.maximum(members, 0)], -1),
+                                   np.full(len(members), -1, np.int64))
+            counts["floor_tracklets"] += len(fl)
     rest = ~used
     if rest[n_plane:].any():
         counts["segments_dropped_ghost"] += int(rest[n_plane:].sum())
         rest[n_plane:] = False
-    return (fl if len(fl) else None), to_plane[rest]  # (to_plane[:n_plane] is sorted, the ghosts' are not kept)
+    return fl, to_plane[rest]  # (to_plane[:n_plane] is sorted, the ghosts' are not kept)
 
 
 AIR = 0.25  #: metres: a body whose bottom is higher than this has left the floor
