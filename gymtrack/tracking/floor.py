@@ -55,7 +55,8 @@ def floor_candidates(segs: WindowTracklets, rig: RigArrays) -> tuple[np.ndarray,
     return kernels.floor_candidates(_f64(segs.box), _c(segs.valid), _c(segs.camera, np.int64), rig, _rules(0.0))
 
 
-def _rules(threshold: float) -> kernels.FloorRules:
+@lru_cache(maxsize=8)
+def _rules(threshold: float) -> kernels.FloorRules:  # (one per threshold: built once, not per window)
     return kernels.FloorRules(MIN_DOWN, MIN_HEIGHT, MAX_HEIGHT, float(threshold), PLANE, INTERPOLATED)
 
 
