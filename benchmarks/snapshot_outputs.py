@@ -2,11 +2,12 @@
 
 Usage::
 
-    PYTHONPATH=<tree> python benchmarks/snapshot_outputs.py SUITE OUT [PATTERN]    # e.g. 'uneven_bars/ncam2/*'
+    PYTHONPATH=<tree> python benchmarks/snapshot_outputs.py SUITE OUT [PATTERN] [METHODS]   # e.g. 'uneven_bars/ncam2/*'
     diff OLD/SHA256SUMS NEW/SHA256SUMS
 
-Runs every method of the benchmark (cascade, triangulation, plane, mvpt, oracle) on every routine
-of SUITE (``gymtrack simulate-suite`` output; PATTERN is fnmatch on ``<apparatus>/ncam<n>/r<k>``)
+Runs every method of the benchmark (cascade, cascade+, triangulation, plane, mvpt, oracle) on every routine
+of SUITE (``gymtrack simulate-suite`` output; PATTERN is fnmatch on ``<apparatus>/ncam<n>/r<k>``,
+several patterns comma-separated; METHODS, comma-separated, restricts the methods, e.g. ``cascade+,cascade``)
 through :func:`gymtrack.eval.benchmark.run_method`, writes the outputs of docs/formats.md under
 ``OUT/<routine>/<method>/`` and ``OUT/SHA256SUMS`` (summary.json without its timing keys). Issue 10's
 refactor was checked this way: 4620 files, 0 differ, on the default 84-routine suite.
@@ -16,7 +17,9 @@ from pathlib import Path
 import numpy as np
 
 suite, out = Path(sys.argv[1]), Path(sys.argv[2])
-pattern = sys.argv[3] if len(sys.argv) > 3 else "*"  # fnmatch on the routine path relative to SUITE
+patterns = (sys.argv[3] if len(sys.argv) > 3 else "*").split(",")  # fnmatch on the routine path relative to SUITE
+METHODS = ("cascade", "cascade+", "triangulation", "plane", "mvpt", "oracle")  # cascade+: beyond the paper, issue 12
+methods = tuple(sys.argv[4].split(",")) if len(sys.argv) > 4 else METHODS
 import fnmatch
 import gymtrack
 print("gymtrack from", gymtrack.__file__, file=sys.stderr)
@@ -35,12 +38,13 @@ def strip(d):
         return [strip(v) for v in d]
     return d
 
-routines = sorted(p.parent for p in suite.rglob("scene.yaml") if fnmatch.fnmatch(str(p.parent.relative_to(suite)), pattern))
+routines = sorted(p.parent for p in suite.rglob("scene.yaml") 
+                  if any(fnmatch.fnmatch(str(p.parent.relative_to(suite)), q) for q in patterns))
 for r in routines:
     rt = load_routine(r)
     size = np.array([c.size for c in rt.rig], dtype=np.float64)
     gt = load_ground_truth(r, rt.rig.names, image_size=size)
-    for method in ("cascade", "triangulation", "plane", "mvpt", "oracle"):
+    for method in methods:
         res, _, _ = run_method(method, rt.rig, rt.scene, rt.detections, gt)
         d = out / r.relative_to(suite) / method
         write_outputs(res, d)

@@ -16,13 +16,13 @@ from gymtrack.geometry.primitives import triangulate_points
 from gymtrack.geometry.triangulation import triangulate_views as triangulate_views_numpy
 from gymtrack.tracking._kernels import windows as window_kernels
 from gymtrack.tracking.clustering import complete_linkage, tracklet_distances
-from gymtrack.tracking.linking import link_distances
+from gymtrack.tracking.linking import link_distances, merge_overlaps
 from gymtrack.tracking.reconstruct import cluster_members, outliers, outliers_by_place, triangulate_clusters
 from gymtrack.tracking.single_view import IoUTracker, assign, iou_matrix
 from gymtrack.tracking.types import WindowTracklets
 from gymtrack.tracking.windows import fill_missing
 from reference.clustering import complete_linkage_numpy, complete_linkage_sequential, tracklet_distances_numpy
-from reference.linking import link_distances_numpy
+from reference.linking import link_distances_numpy, merge_overlaps_numpy
 from reference.plane import candidate_distances, candidate_distances_numpy
 from reference.reconstruct import outliers_by_place_numpy, outliers_numpy, triangulate_clusters_numpy
 from reference.single_view import IoUTrackerNumpy
@@ -223,3 +223,40 @@ def test_lsa_reference_sanity():
     assert sorted(zip(r.tolist(), c.tolist())) == [(0, 1), (1, 0)]
     assert linear_sum_assignment(-score)[1].tolist() == [1, 0]
 
+
+
+@pytest.mark.parametrize("best_only", [False, True])
+@pytest.mark.parametrize("n", [1, 2, 60])
+def test_merge_overlaps_kernel(rng, n, best_only):
+    # Eq. 12: compiled vs numpy on random rows, groups of 1-4 estimates per (frame, track), NaN heights
+    frame = rng.integers(3, 9, n)
+    track = rng.integers(0, 4, n) * 7
+    xyz = rng.normal(size=(n, 3)) * [1.0, 1e6, 1e-6]  # wide magnitudes: summation order shows
+    top = np.where(rng.random(n) < 0.3, np.nan, rng.normal(size=n))
+    bottom = np.where(rng.random(n) < 0.3, np.nan, rng.normal(size=n))
+    source = rng.integers(0, 3, n).astype(np.int8)
+    views = rng.integers(0, 5, n).astype(np.int8)
+    got = merge_overlaps(frame, track, xyz, top, bottom, source, views, best_only)
+    want = merge_overlaps_numpy(frame, track, xyz, top, bottom, source, views, best_only)
+    for f in ("frame", "track_id", "xyz", "top_z", "bottom_z", "source", "n_views"):
+        g, w = getattr(got, f), getattr(want, f)
+        assert g.dtype == w.dtype and np.array_equal(g, w, equal_nan=True), f  # bit-identical
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_link_by_2d_kernel(seed):
+    # cascade+'s link by 2D tracks: compiled vs numpy on random windows (few ids: many hits, ties and conflicts)
+    from gymtrack.tracking._kernels.linking import link_by_2d
+    from reference.linking import link_by_2d_numpy
+    rng = np.random.default_rng(seed)
+    M, C, K = 8, 4, 12
+    members = np.where(rng.random((M, C)) < 0.5, rng.integers(0, K, (M, C)), -1).astype(np.int64)
+    track2d = rng.integers(0, 8, K).astype(np.int64)
+    prev_2d = rng.permutation(8)[:7].astype(np.int64)
+    prev_owner = rng.integers(0, 3, 7).astype(np.int64) // 2  # (mostly one owner: links are made)
+    ids = np.where(rng.random(M) < 0.2, rng.integers(0, 3, M), -1).astype(np.int64)
+    rows = np.flatnonzero((members >= 0).sum(1) >= 1)
+    a, b = ids.copy(), ids.copy()
+    assert link_by_2d(rows, members, track2d, prev_2d, prev_owner, a) == link_by_2d_numpy(
+        rows, members, track2d, prev_2d, prev_owner, b)
+    assert np.array_equal(a, b)

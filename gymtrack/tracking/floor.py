@@ -55,7 +55,8 @@ def floor_candidates(segs: WindowTracklets, rig: RigArrays) -> tuple[np.ndarray,
     return kernels.floor_candidates(_f64(segs.box), _c(segs.valid), _c(segs.camera, np.int64), rig, _rules(0.0))
 
 
-def _rules(threshold: float) -> kernels.FloorRules:
+@lru_cache(maxsize=8)
+def _rules(threshold: float) -> kernels.FloorRules:  # (one per threshold: built once, not per window)
     return kernels.FloorRules(MIN_DOWN, MIN_HEIGHT, MAX_HEIGHT, float(threshold), PLANE, INTERPOLATED)
 
 
@@ -106,17 +107,23 @@ def floor_stage(segs: WindowTracklets, rig: RigArrays, threshold: float, space: 
     (:func:`._kernels.floor.floor_stage`): candidates, Eq. 8 on the ground positions, Algorithm 1,
     the lone segments' place, Eq. 9.
     """
-    K, W = segs.valid.shape
+    return _floor_stage(segs.start, segs.box, segs.valid, segs.observed, segs.camera, rig, threshold, space, apart, labels)
+
+
+def _floor_stage(start: int, box, valid, observed, camera, rig: RigArrays, threshold: float, space: np.ndarray,
+                 apart: np.ndarray | None, labels: np.ndarray | None) -> tuple[WindowTracklets3D, np.ndarray]:
+    """:func:`floor_stage` on the segments' arrays (box (K, W, 4), valid, observed (K, W), camera (K,))."""
+    K, W = valid.shape
     C = len(rig.K)
     if K == 0:
-        return WindowTracklets3D.empty(segs.start, W, C), np.zeros(0, bool)
-    xyz, top, bottom, valid, source, n_views, members, used = kernels.floor_stage(
-        _f64(segs.box), _c(segs.valid), _c(segs.observed), _c(segs.camera, np.int64), rig, _f64(space),
+        return WindowTracklets3D.empty(start, W, C), np.zeros(0, bool)
+    xyz, top, bottom, fvalid, source, n_views, members, used = kernels.floor_stage(
+        _f64(box), _c(valid), _c(observed), _c(camera, np.int64), rig, _f64(space),
         kernels.NO_APART if apart is None else _c(apart, bool),
         kernels.NO_GROUP if labels is None else _c(labels, np.int64), _rules(threshold))
     if not len(members):
-        return WindowTracklets3D.empty(segs.start, W, C), used
-    return WindowTracklets3D(segs.start, xyz, top, bottom, valid, source, n_views, members,
+        return WindowTracklets3D.empty(start, W, C), used
+    return WindowTracklets3D(start, xyz, top, bottom, fvalid, source, n_views, members,
                              np.full(len(members), -1, np.int64)), used
 
 
@@ -135,26 +142,35 @@ def floor_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | No
     n_plane = len(to_plane)
     if floor_only is not None and len(floor_only):
         to_plane = np.concatenate([to_plane, floor_only])
-    sub = segs.subset(to_plane)
+    if not len(to_plane):
+        return None, to_plane
+    # only the arrays the floor reads are taken (a full ``segs.subset`` copies seven), and the
+    # kernel's output becomes one WindowTracklets3D, after the outlier test (a few us a window)
     apart = None if D2 is None else D2[to_plane][:, to_plane] >= params.cluster_2d  # (two takes: cheaper than np.ix_)
-    labels = np.unique(sub.track2d // C, return_inverse=True)[1] if oracle else None
-    fl, used = floor_stage(sub, rig, params.cluster_plane, _space(scene.performance_space), apart, labels)
+    labels = np.unique(segs.track2d[to_plane] // C, return_inverse=True)[1] if oracle else None
+    xyz, top, bottom, valid, source, n_views, members, used = kernels.floor_stage(
+        _f64(segs.box[to_plane]), _c(segs.valid[to_plane]), _c(segs.observed[to_plane]), _c(segs.camera[to_plane], np.int64),
+        rig, _f64(_space(scene.performance_space)), kernels.NO_APART if apart is None else _c(apart, bool),
+        kernels.NO_GROUP if labels is None else _c(labels, np.int64), _rules(params.cluster_plane))
     counts["segments_to_floor"] += int(np.count_nonzero(used))
-    if len(fl):
-        bad = outliers_by_place(fl.xyz, fl.valid, _tracking_space(scene), params.max_speed)
-        keep = np.flatnonzero(~bad)  # (integer takes: cheaper than a mask per column)
-        if len(keep) < len(bad):  # Eq. 4, as for every 3D tracklet
+    fl = None
+    if len(members):
+        bad = outliers_by_place(xyz, valid, _tracking_space(scene), params.max_speed)
+        if bad.any():  # Eq. 4, as for every 3D tracklet
+            keep = np.flatnonzero(~bad)  # (integer takes: cheaper than a mask per column)
             counts["tracklets_outliers"] += len(bad) - len(keep)
-        m = fl.members[keep]
-        fl = WindowTracklets3D(fl.start, fl.xyz[keep], fl.top_z[keep], fl.bottom_z[keep], fl.valid[keep],
-                               fl.source[keep], fl.n_views[keep], np.where(m >= 0, to_plane[np.maximum(m, 0)], -1),
-                               fl.track_id[keep])
-        counts["floor_tracklets"] += len(fl)
+            xyz, top, bottom, valid, source, n_views, members = (
+                a[keep] for a in (xyz, top, bottom, valid, source, n_views, members))
+        if len(members):
+            fl = WindowTracklets3D(segs.start, xyz, top, bottom, valid, source, n_views,
+                                   np.where(members >= 0, to_plane[np.maximum(members, 0)], -1),
+                                   np.full(len(members), -1, np.int64))
+            counts["floor_tracklets"] += len(fl)
     rest = ~used
     if rest[n_plane:].any():
         counts["segments_dropped_ghost"] += int(rest[n_plane:].sum())
         rest[n_plane:] = False
-    return (fl if len(fl) else None), np.sort(to_plane[rest])
+    return fl, to_plane[rest]  # (to_plane[:n_plane] is sorted, the ghosts' are not kept)
 
 
 AIR = 0.25  #: metres: a body whose bottom is higher than this has left the floor

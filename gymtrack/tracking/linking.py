@@ -165,37 +165,10 @@ def merge_overlaps(
     """
     if len(frame) == 0:
         return Tracks3D.empty()
-    # one stable argsort of a combined (frame, track) key: cheaper than lexsort of two keys
-    lo = track_id.min()
-    key = (frame - frame.min()) * (track_id.max() - lo + 1) + (track_id - lo)
-    order = np.argsort(key, kind="stable")
-    key = key[order]
-    frame, track_id, xyz, top_z, bottom_z, source, n_views = (
-        c[order] for c in (frame, track_id, xyz, top_z, bottom_z, source, n_views))
-    new = np.ones(len(key), bool)  # first estimate of each (frame, track)
-    np.not_equal(key[1:], key[:-1], out=new[1:])
-    start = np.flatnonzero(new)
-    if len(start) == len(key):  # every (frame, track) has one estimate: nothing to average
-        return Tracks3D(frame, track_id, xyz, top_z, bottom_z, source.astype(np.int8), n_views.astype(np.int8))
-    count = np.diff(np.append(start, len(key)))
-    if best_only:  # where a group has an over-determined triangulation, only those are averaged
-        strong = (source == 0) & (n_views >= 3)
-        keep = strong | ~np.repeat(np.logical_or.reduceat(strong, start), count)
-        if not keep.all():
-            frame, track_id, xyz, top_z, bottom_z, source, n_views = (
-                c[keep] for c in (frame, track_id, xyz, top_z, bottom_z, source, n_views))
-            count = np.add.reduceat(keep.astype(np.int64), start)  # every group keeps a row
-            start = np.r_[0, np.cumsum(count)[:-1]]
-
-    def mean(v):
-        ok = np.isfinite(v)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return np.add.reduceat(np.where(ok, v, 0.0), start) / np.add.reduceat(ok.astype(np.float64), start)
-
-    return Tracks3D(
-        frame[start], track_id[start], np.add.reduceat(xyz, start) / count[:, None], mean(top_z), mean(bottom_z),
-        np.minimum.reduceat(source, start).astype(np.int8), np.maximum.reduceat(n_views, start).astype(np.int8),
-    )
+    return Tracks3D(*kernels.merge_overlaps(  # one compiled pass (numpy: tests/reference/linking.py)
+        np.ascontiguousarray(frame, np.int64), np.ascontiguousarray(track_id, np.int64), np.ascontiguousarray(xyz, np.float64),
+        np.ascontiguousarray(top_z, np.float64), np.ascontiguousarray(bottom_z, np.float64),
+        np.ascontiguousarray(source, np.int8), np.ascontiguousarray(n_views, np.int8), bool(best_only)))
 
 
 def member(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -240,6 +213,9 @@ class WindowLinker:
         self.prev_2d = np.zeros(0, np.int64)
         self.prev_seen = np.zeros(0, np.int64)  # 2D tracks of the previous window's segments
         self._prev_first_new = 0  # the first track id the previous window started (younger ids: born there)
+        # cascade+: :func:`tracklet_ends` of ``prev``'s rows when the motion link computed them
+        # (the tracker hands them over after each step; None: computed here)
+        self.prev_ends: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
     def __len__(self) -> int:
         """Stored items: the previous window's (tracklet, frame) cells and the tracks' entries."""
@@ -254,6 +230,7 @@ class WindowLinker:
     def break_chain(self) -> None:
         """The next window does not follow on the last one (a pause jumped over)."""
         self.prev = None
+        self.prev_ends = None
 
     def may_continue_alone(self, track2d: np.ndarray) -> np.ndarray:
         """(n,) bool: the 2D tracks (n,) that may continue a 3D track on the plane from one view:
@@ -297,13 +274,14 @@ class WindowLinker:
         ids[new] = self.next_track_id + np.arange(int(new.sum()))
         self.next_track_id += int(new.sum())
         cur = cur.with_track_id(ids)
-        self.prev_2d = track2d[cur.members[cur.members >= 0]]
+        has = cur.members >= 0
+        self.prev_2d = track2d[cur.members[has]]
         if self.by_2d:
-            self.prev_owner = np.broadcast_to(cur.track_id[:, None], cur.members.shape)[cur.members >= 0]
+            self.prev_owner = np.broadcast_to(cur.track_id[:, None], cur.members.shape)[has]
         self.prev_seen = track2d
         self._prev_first_new = first_new
         self._end_tracks(cur)
-        self.prev = cur
+        self.prev, self.prev_ends = cur, None
         return cur
 
     def _link(self, cur: WindowTracklets3D, solo: np.ndarray) -> np.ndarray:
@@ -319,7 +297,9 @@ class WindowLinker:
         for k, group in enumerate((~solo, solo) if solo.any() else (None,)):
             cols = np.flatnonzero(ids < 0) if group is None else np.flatnonzero(group & (ids < 0))
             # the first pass may link any previous tracklet, the second only those still free
-            free = (np.flatnonzero(~member(prev.track_id, ids)) if k or self.by_2d else np.arange(len(prev))) if chained else []
+            # (by_2d: only once a link by 2D tracks took one)
+            free = (np.flatnonzero(~member(prev.track_id, ids)) if k or (self.by_2d and (ids >= 0).any())
+                    else np.arange(len(prev))) if chained else []
             if len(cols) and len(free):
                 r, c = link(link_distances(prev.xyz[free], prev.valid[free], cur.xyz[cols], cur.valid[cols],
                                            self.window_step), self.link_3d)
@@ -338,8 +318,10 @@ class WindowLinker:
         young one is lost. Trade: two people who really met within ``link_3d`` of each other while
         one of them had just appeared may swap ids."""
         prev = self.prev
-        on = member(prev.track_id, ids[ids >= 0])
         older = prev.track_id < self._prev_first_new
+        if older.all() or not older.any():  # no young track, or none older: nothing to merge
+            return
+        on = member(prev.track_id, ids[ids >= 0])
         old, young = np.flatnonzero(~on & older), np.flatnonzero(on & ~older)
         if not len(old) or not len(young):
             return
@@ -351,15 +333,11 @@ class WindowLinker:
     def _link_by_2d(self, cur: WindowTracklets3D, ids: np.ndarray) -> None:
         """Floor tracklets of two or more views whose 2D tracks all belonged to one previous track
         (one tracklet per track: the first) continue it (written into ``ids``)."""
-        track2d = self._track2d
-        for m in np.flatnonzero(self._floor & ((cur.members >= 0).sum(1) >= 2)).tolist():
-            t2 = track2d[cur.members[m][cur.members[m] >= 0]]
-            at = np.flatnonzero(member(self.prev_2d, t2))
-            if len(at) == len(t2) and len(np.unique(self.prev_owner[at])) == 1:
-                tid = int(self.prev_owner[at[0]])
-                if tid not in ids:
-                    ids[m] = tid
-                    self.counts["links_2d"] += 1
+        rows = np.flatnonzero(self._floor & ((cur.members >= 0).sum(1) >= 2))
+        if len(rows):  # one compiled loop (numpy: tests/reference/linking.py)
+            self.counts["links_2d"] += kernels.link_by_2d(
+                rows, np.ascontiguousarray(cur.members, np.int64), np.ascontiguousarray(self._track2d, np.int64),
+                np.ascontiguousarray(self.prev_2d, np.int64), np.ascontiguousarray(self.prev_owner, np.int64), ids)
 
     def _relink(self, cur: WindowTracklets3D, cols: np.ndarray, ids: np.ndarray) -> None:
         """Lost tracks continued by the tracklets ``cols`` (written into ``ids``)."""
@@ -379,7 +357,10 @@ class WindowLinker:
         gone = [k for k in self.track_last if k not in live]
         if gone:  # not continued: lost, and ended once it can no longer be re-linked
             at = np.flatnonzero(member(prev.track_id, np.array(gone, np.int64)))
-            lf, lx, lv = tracklet_ends(prev.xyz[at], prev.valid[at], prev.start, self.max_speed)
+            if self.prev_ends is not None:  # the same values, already computed for prev's rows
+                lf, lx, lv = (e[at] for e in self.prev_ends)
+            else:
+                lf, lx, lv = tracklet_ends(prev.xyz[at], prev.valid[at], prev.start, self.max_speed)
             for k, tid in enumerate(prev.track_id[at].tolist()):
                 self.track_last.pop(tid)
                 self.lost[tid] = (int(lf[k]), lx[k], lv[k])

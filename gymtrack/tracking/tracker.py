@@ -387,6 +387,8 @@ class Tracker:
         cur = self.linker.step(cur, segs.track2d, solo, floor_rows)
         if self.motion is not None:
             self.motion.remember(cur, segs)
+            if self.motion.ends:  # cascade+: the linker's lost tracks take their ends from these (same values)
+                self.linker.prev_ends = self.motion.ends[4:]
         self.records.add(cur, segs, self._window_index)
         self._window_index += 1
         self._next_start = start + self.step
