@@ -43,6 +43,7 @@ import numpy as np
 from ..geometry.arrays import PlaneArrays, RigArrays
 from ._kernels import floor as kernels
 from .plane_fallback import MIN_COS
+from .reconstruct import outliers_by_place
 from .types import INTERPOLATED, PLANE, WindowTracklets, WindowTracklets3D
 
 MIN_HEIGHT, MAX_HEIGHT = 0.7, 2.4  #: metres: a seated to a tall standing person's top (floor candidates)
@@ -136,8 +137,6 @@ def floor_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | No
     after the outlier test (``members`` index ``segs``; None when none) and the segments left
     for the apparatus plane. ``floor_only``: segments that may go to the floor only (the ghosts'
     of :func:`drop_floor_ghosts`; dropped, and counted, when the floor does not take them)."""
-    from .reconstruct import outliers_by_place
-
     C = len(rig.K)
     n_plane = len(to_plane)
     if floor_only is not None and len(floor_only):
@@ -150,7 +149,7 @@ def floor_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | No
     labels = np.unique(segs.track2d[to_plane] // C, return_inverse=True)[1] if oracle else None
     xyz, top, bottom, valid, source, n_views, members, used = kernels.floor_stage(
         _f64(segs.box[to_plane]), _c(segs.valid[to_plane]), _c(segs.observed[to_plane]), _c(segs.camera[to_plane], np.int64),
-        rig, _f64(_space(scene.performance_space)), kernels.NO_APART if apart is None else _c(apart, bool),
+        rig, _space(scene.performance_space), kernels.NO_APART if apart is None else _c(apart, bool),
         kernels.NO_GROUP if labels is None else _c(labels, np.int64), _rules(params.cluster_plane))
     counts["segments_to_floor"] += int(np.count_nonzero(used))
     fl = None
@@ -203,15 +202,17 @@ def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig:
         _c(tri.members, np.int64), _c(tri.valid), _f64(tri.bottom_z), _f64(tri.xyz), _f64(segs.box), _c(segs.valid),
         _c(segs.observed), _c(segs.camera, np.int64), rig, PlaneArrays.from_planes(planes),
         _space(scene.performance_space), AIR, MIN_COS, _rules(params.cluster_plane))
-    if owner is not None and ghost.any():  # a pair already one track's in the last window is confirmed
+    if not ghost.any():  # the usual window: no ghost, nothing more to look up
+        return tri, none
+    if owner is not None:  # a pair already one track's in the last window is confirmed
         owner = owner() if callable(owner) else owner  # (the tracker's look-up: only when needed)
         o = np.where(tri.members >= 0, owner[np.maximum(tri.members, 0)], -2)
         lo = np.where(tri.members >= 0, o, np.iinfo(np.int64).max).min(axis=1)
         confirmed = (lo >= 0) & ((o == lo[:, None]) | (tri.members < 0)).all(axis=1)
         counts["floor_ghosts_confirmed"] += int((ghost & confirmed).sum())
         ghost &= ~confirmed
-    if not ghost.any():
-        return tri, none
+        if not ghost.any():
+            return tri, none
     counts["floor_ghosts"] += int(ghost.sum())
     pair = np.sort(tri.members[ghost], axis=1)[:, -2:]  # (n, 2) the two segments
     return tri.subset(~ghost), np.sort(pair.ravel())

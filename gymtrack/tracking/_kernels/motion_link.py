@@ -142,28 +142,28 @@ def new_tracks(frame, track2d, start, stop, fresh_from, seen):
     a = np.searchsorted(frame, start)
     f = np.searchsorted(frame, fresh_from)
     b = np.searchsorted(frame, stop)
-    early = np.sort(track2d[a:min(f, b)])  # tracks with a box before fresh_from: not new
     fresh = np.sort(track2d[max(f, a):b])
-    out = np.empty(len(fresh), np.int64)
+    cand = np.empty(len(fresh), np.int64)  # the fresh frames' tracks, once each (a handful)
     n = 0
-    e = 0
     for p in range(len(fresh)):
-        t = fresh[p]
-        if p > 0 and t == fresh[p - 1]:
-            continue
-        while e < len(early) and early[e] < t:
-            e += 1
-        if e < len(early) and early[e] == t:
-            continue
-        new = True
-        for q in range(len(seen)):
-            if seen[q] == t:
-                new = False
-                break
-        if new:
-            out[n] = t
+        if p == 0 or fresh[p] != fresh[p - 1]:
+            cand[n] = fresh[p]
             n += 1
-    return out[:n]
+    cand = cand[:n]
+    keep = np.ones(n, np.bool_)
+    if n == 0:
+        return cand
+    # a track with a box before fresh_from is not new; each earlier row is looked up among the
+    # few candidates (no sort of the window's earlier rows, the many)
+    for i in range(a, min(f, b)):
+        k = np.searchsorted(cand, track2d[i])
+        if k < n and cand[k] == track2d[i]:
+            keep[k] = False
+    for q in range(len(seen)):
+        k = np.searchsorted(cand, seen[q])
+        if k < n and cand[k] == seen[q]:
+            keep[k] = False
+    return cand[keep]
 
 
 @njit(cache=True, error_model="numpy")
