@@ -2,7 +2,7 @@
 
 Paper: no method of its own; these are the hot loops of Section III-A (:mod:`.single_view`,
 :mod:`.windows`), III-B (:mod:`.clustering`: Eq. 2, Algorithm 1; :mod:`.reconstruct`: Eq. 3-4;
-:mod:`.linking`: Eq. 10), III-C (:mod:`.plane`: Eq. 5-9; :mod:`.floor`: ``cascade+``'s floor, Eq. 5-9 on z = 0; :mod:`.fusion`: ``cascade+``'s ray-plane fusion;
+:mod:`.linking`: Eq. 10-12, cascade+'s link by 2D tracks), III-C (:mod:`.plane`: Eq. 5-9; :mod:`.floor`: ``cascade+``'s floor, Eq. 5-9 on z = 0; :mod:`.fusion`: ``cascade+``'s ray-plane fusion;
 :mod:`.motion_link`: ``cascade+``'s link of broken 2D tracks by 3D motion, :mod:`.exclusion`: its
 duplicate suppression, :mod:`.records`: its superseded estimates, issue 12) and III-D (:mod:`.target`: Eq. 14),
 written as plain loops over the scalar primitives of :mod:`gymtrack.geometry.primitives`.
