@@ -50,6 +50,16 @@ def cluster_points(box, observed, members):
     return u, v, n_views
 
 
+@njit(cache=True, inline="always")
+def too_fast(xyz, m, p, t, max_speed):
+    """Eq. 4's speed test between valid points ``p < t`` of tracklet ``m``: further apart than
+    ``max_speed`` metres per frame."""
+    d0 = xyz[m, t, 0] - xyz[m, p, 0]
+    d1 = xyz[m, t, 1] - xyz[m, p, 1]
+    d2 = xyz[m, t, 2] - xyz[m, p, 2]
+    return np.sqrt(d0 * d0 + d1 * d1 + d2 * d2) > max_speed * (t - p)
+
+
 @njit(cache=True)
 def outliers(xyz, valid, space, max_speed):
     """Eq. 4, :func:`gymtrack.tracking.reconstruct.outliers`: xyz (M, W, 3), valid (M, W), space (6,),
@@ -67,12 +77,8 @@ def outliers(xyz, valid, space, max_speed):
                 x = xyz[m, t, q]
                 if not (x >= space[q] and x <= space[3 + q]):
                     bad[m] = True
-            if p >= 0:
-                d0 = xyz[m, t, 0] - xyz[m, p, 0]
-                d1 = xyz[m, t, 1] - xyz[m, p, 1]
-                d2 = xyz[m, t, 2] - xyz[m, p, 2]
-                if np.sqrt(d0 * d0 + d1 * d1 + d2 * d2) > max_speed * (t - p):
-                    bad[m] = True
+            if p >= 0 and too_fast(xyz, m, p, t, max_speed):
+                bad[m] = True
             p = t
         if not any_valid:
             bad[m] = True
@@ -98,12 +104,8 @@ def outliers_by_place(xyz, valid, space, max_speed):
             s0 += xyz[m, t, 0]
             s1 += xyz[m, t, 1]
             s2 += xyz[m, t, 2]
-            if p >= 0:
-                d0 = xyz[m, t, 0] - xyz[m, p, 0]
-                d1 = xyz[m, t, 1] - xyz[m, p, 1]
-                d2 = xyz[m, t, 2] - xyz[m, p, 2]
-                if np.sqrt(d0 * d0 + d1 * d1 + d2 * d2) > max_speed * (t - p):
-                    bad[m] = True
+            if p >= 0 and too_fast(xyz, m, p, t, max_speed):
+                bad[m] = True
             p = t
         if n == 0:
             bad[m] = True
