@@ -44,7 +44,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from .single_view import assign, corners, iou_corners
+from .single_view import assign, corners, iou_corners, renamed
 
 #: body heights per second a box centre may move (1.7 m/s for a 1.7 m person: a brisk walk)
 SPEED = 1.0
@@ -175,10 +175,7 @@ class MotionIoUTracker:
         return ids
 
     def rename(self, new: np.ndarray, old: np.ndarray) -> None:
-        """Live tracks ``new`` (n,) continue under the ids ``old`` (n,) (:mod:`.motion_link`); an
-        old track still live is ended (its successor took over)."""
-        order = np.argsort(new)
-        new, old = np.asarray(new)[order], np.asarray(old)[order]
-        self._keep(~np.isin(self.track_id, old))
-        at = np.flatnonzero(np.isin(self.track_id, new))
-        self.track_id[at] = old[np.searchsorted(new, self.track_id[at])]
+        """Live tracks ``new`` (n,) continue under the ids ``old`` (n,) (:func:`.single_view.renamed`)."""
+        keep, ids = renamed(self.track_id, new, old)
+        self._keep(keep)
+        self.track_id = ids
