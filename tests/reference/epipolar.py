@@ -12,22 +12,7 @@ from gymtrack.geometry.plane import Plane, RayPlaneStatus
 
 
 def epipolar_distance_numpy(box_i: np.ndarray, box_j: np.ndarray, F_ij: np.ndarray) -> np.ndarray:
-    """Normalised symmetric epipolar distance of two boxes, paper Eq. 1.
-
-    ``d = d(x_i, F_ij^T x_j) / |w_i + h_i| + d(x_j, F_ij x_i) / |w_j + h_j|``
-
-    Parameters
-    ----------
-    box_i: (..., 4) centre-form boxes ``[x, y, w, h]`` in view i (undistorted pixels).
-    box_j: (..., 4) boxes in view j; broadcast against ``box_i`` (e.g. ``(N, 1, 4)`` and
-        ``(1, M, 4)`` give the (N, M) matrix of every pair).
-    F_ij: (..., 3, 3) fundamental matrix with ``x_j^T F_ij x_i = 0``.
-
-    Returns
-    -------
-    (...) dimensionless distances: 0 for a perfect correspondence; about 0.1-0.3 for the same
-    person's box centres under real detector noise (the paper's threshold is 0.3).
-    """
+    """Eq. 1 in numpy: the contract of :func:`gymtrack.geometry.epipolar.epipolar_distance`."""
     box_i = np.asarray(box_i, dtype=np.float64)
     box_j = np.asarray(box_j, dtype=np.float64)
     F_ij = np.asarray(F_ij, dtype=np.float64)
@@ -45,23 +30,7 @@ def intersect_rays_plane_numpy(
     plane: Plane,
     min_cos: float = 1e-3,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Intersect rays with a plane (paper Eq. 7), vectorised.
-
-    Parameters
-    ----------
-    origins: (..., 3) ray origins (camera centres ``X^o_c``), broadcast against ``directions``.
-    directions: (..., 3) ray directions ``{}^w v`` (need not be unit length).
-    plane: the plane.
-    min_cos: rays whose direction makes ``|cos| < min_cos`` with the normal count as parallel.
-        The default (about 0.06 degrees off the plane) keeps intersections within ~1000 x the
-        camera's distance to the plane; raise it to refuse grazing rays whose intersection is
-        too sensitive to pixel noise.
-
-    Returns
-    -------
-    X: (..., 3) intersection points; NaN where the status is not OK.
-    status: (...) int8 :class:`RayPlaneStatus` codes.
-    """
+    """Eq. 7 in numpy: the contract of :func:`gymtrack.geometry.plane.intersect_rays_plane`."""
     o = np.asarray(origins, dtype=np.float64)
     d = np.asarray(directions, dtype=np.float64)
     o, d = np.broadcast_arrays(o, d)
