@@ -175,6 +175,16 @@ def ring_rig(azimuths_deg, radius=12.0, height=3.0, f=1400.0, target=(0.0, 0.0, 
     return Rig(cams)
 
 
+def rays_to(rig: Rig, X: np.ndarray, noise_px: float = 0.0, rng=None):
+    """Pixels of X (3,) in every view of ``rig`` (optionally noisy), the cameras' centres, and
+    the unit rays through those pixels: (C, 2), (C, 3), (C, 3)."""
+    uv = np.stack([cam.project(X[None])[0] for cam in rig])
+    if noise_px:
+        uv = uv + rng.normal(0, noise_px, uv.shape)
+    d = np.stack([cam.rays(uv[i:i + 1])[0] for i, cam in enumerate(rig)])
+    return uv, rig.centres, d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
 def simple_scene(**params):
     """A scene around the origin: plane x = 0 (normal +x), generous performance space."""
     return scene_from_dict({

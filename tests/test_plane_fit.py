@@ -7,7 +7,7 @@ import cv2
 import numpy as np
 import pytest
 
-from conftest import as_raw, make_detections, ring_rig, simple_scene
+from conftest import rays_to, as_raw, make_detections, ring_rig, simple_scene
 
 from gymtrack.errors import SceneError
 from gymtrack.eval.plane_bench import perturbed_plane
@@ -59,18 +59,10 @@ def test_planes_auto_in_scene_yaml():
         scene_from_dict({"apparatus": "vault", "planes": "fitted"})
 
 
-def _two_rays(rig, X, noise_px=0.0, rng=None):
-    uv = np.stack([cam.project(X[None])[0] for cam in rig])
-    if noise_px:
-        uv = uv + rng.normal(0, noise_px, uv.shape)
-    d = np.stack([cam.rays(uv[i:i + 1])[0] for i, cam in enumerate(rig)])
-    return uv, rig.centres, d / np.linalg.norm(d, axis=1, keepdims=True)
-
-
 def test_fusion_without_prior_is_triangulation_against_opencv():
     rig = ring_rig([0, 70])
     X = np.array([0.3, -0.4, 1.3])
-    uv, o, d = _two_rays(rig, X)
+    uv, o, d = rays_to(rig, X)
     Xf, _ = fuse_rays_plane(o, d, np.ones(2), np.ones(2, bool), np.array([1.0, 0, 0]), np.zeros(3), np.inf)
     h = cv2.triangulatePoints(rig[0].P, rig[1].P, uv[0].reshape(2, 1), uv[1].reshape(2, 1))
     np.testing.assert_allclose(Xf, (h[:3] / h[3]).ravel(), atol=1e-6)
@@ -80,7 +72,7 @@ def test_fusion_without_prior_is_triangulation_against_opencv():
 def test_fusion_with_a_tight_prior_is_the_paper_rule_eq9(rng):
     rig = ring_rig([0, 180])  # opposite views through the plane x = 0
     X = np.array([0.0, 0.5, 1.3])
-    uv, o, d = _two_rays(rig, X, 2.0, rng)
+    uv, o, d = rays_to(rig, X, 2.0, rng)
     plane = Plane(np.zeros(3), np.array([1.0, 0, 0]))
     cand, _ = intersect_rays_plane(o, d, plane)
     Xf, A = fuse_rays_plane(o, d, np.full(2, 0.01), np.ones(2, bool), plane.normal, plane.point, 1e-6)
@@ -89,7 +81,7 @@ def test_fusion_with_a_tight_prior_is_the_paper_rule_eq9(rng):
     # a loose prior leaves a well-conditioned pair where its rays cross
     rig2 = ring_rig([0, 90])
     Y = np.array([1.0, 0.5, 1.3])  # 1 m off the plane
-    _, o2, d2 = _two_rays(rig2, Y)
+    _, o2, d2 = rays_to(rig2, Y)
     Yf, _ = fuse_rays_plane(o2, d2, np.full(2, 0.01), np.ones(2, bool), plane.normal, plane.point, 10.0)
     np.testing.assert_allclose(Yf, Y, atol=2e-3)
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.optimize import least_squares
 
-from conftest import ring_rig, same, simple_scene
+from conftest import rays_to, ring_rig, same, simple_scene
 from gymtrack.errors import InputError
 from gymtrack.geometry.arrays import PlaneArrays
 from gymtrack.geometry.plane import Plane, intersect_rays_plane
@@ -21,15 +21,6 @@ from gymtrack.tracking.types import WindowTracklets
 from reference import fusion as ref
 
 W = 10
-
-
-def _rays(rig, X, noise_px=0.0, rng=None):
-    """Pixels of X (3,) in every view (optionally noisy), the cameras' centres, unit rays."""
-    uv = np.stack([cam.project(X[None])[0] for cam in rig])
-    if noise_px:
-        uv = uv + rng.normal(0, noise_px, uv.shape)
-    d = np.stack([cam.rays(uv[i:i + 1])[0] for i, cam in enumerate(rig)])
-    return uv, rig.centres, d / np.linalg.norm(d, axis=1, keepdims=True)
 
 
 def test_weighted_least_squares_against_scipy(rng):
@@ -63,13 +54,13 @@ def test_weighted_least_squares_against_scipy(rng):
 def test_limits_opencv_without_prior_and_eq9_with_a_rigid_plane(rng):
     rig = ring_rig([0, 70])
     X = np.array([0.3, -0.4, 1.3])
-    uv, o, d = _rays(rig, X)
+    uv, o, d = rays_to(rig, X)
     Xf, _ = fuse_rays_plane(o, d, np.ones(2), np.ones(2, bool), np.array([1.0, 0, 0]), np.zeros(3), np.inf)
     h = cv2.triangulatePoints(rig[0].P, rig[1].P, uv[0].reshape(2, 1), uv[1].reshape(2, 1))
     np.testing.assert_allclose(Xf, (h[:3] / h[3]).ravel(), atol=1e-6)
     # plane_sigma -> 0 with opposite views: the Eq. 9 average of the Eq. 7 candidates
     rig = ring_rig([0, 180])
-    uv, o, d = _rays(rig, np.array([0.0, 0.5, 1.3]), 2.0, rng)
+    uv, o, d = rays_to(rig, np.array([0.0, 0.5, 1.3]), 2.0, rng)
     plane = Plane(np.zeros(3), np.array([1.0, 0, 0]))
     cand, _ = intersect_rays_plane(o, d, plane)
     Xf, _ = fuse_rays_plane(o, d, np.full(2, 0.01), np.ones(2, bool), plane.normal, plane.point, 1e-6)
@@ -86,11 +77,11 @@ def test_covariance_against_monte_carlo(rng):
     sigma_px, f = 2.0, rig[0].K[0, 0]
     plane = Plane(np.zeros(3), np.array([1.0, 0, 0]))
     s = np.linalg.norm(X - rig.centres, axis=1) * sigma_px / f  # depth along the optical axis ~ distance here
-    _, o, d0 = _rays(rig, X)
+    _, o, d0 = rays_to(rig, X)
     _, A = fuse_rays_plane(o, d0, s, np.ones(2, bool), plane.normal, plane.point, 0.3)
     samples = []
     for _ in range(3000):
-        _, o, d = _rays(rig, X, sigma_px, rng)
+        _, o, d = rays_to(rig, X, sigma_px, rng)
         # the prior is a measurement too: the plane's offset drawn with its sigma
         p = plane.point + rng.normal(0, 0.3) * plane.normal
         samples.append(fuse_rays_plane(o, d, s, np.ones(2, bool), plane.normal, p, 0.3)[0])
