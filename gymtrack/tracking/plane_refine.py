@@ -94,9 +94,7 @@ class PlaneRefiner:
 
     def due(self) -> bool:
         """A refit now: every ``every`` windows, and as soon as there are enough points for a first."""
-        if self._n < MIN_POINTS:
-            return False
-        return self.windows % self.every == 0 or (self.refits == 0 and self._n >= MIN_POINTS)
+        return self._n >= MIN_POINTS and (self.refits == 0 or self.windows % self.every == 0)
 
     def refit(self, frame: int) -> Plane | None:
         """The refitted plane when it moved (else None); ``frame``: where the stream is (recorded)."""

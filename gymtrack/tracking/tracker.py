@@ -269,7 +269,7 @@ class Tracker:
             self.plane_arrays = PlaneArrays.from_planes(self.planes)
             self.target.planes = self.planes  # (Eq. 14's boxes follow the plane's normal)
             if self.fusion is not None:
-                self.fusion.planes = self.plane_arrays
+                self.fusion.set_planes(self.plane_arrays)
 
     def _timed(self, stage: str, fn: Callable, *args):
         t0 = time.perf_counter()
