@@ -34,7 +34,7 @@ from ..geometry.camera import Rig
 from ..geometry.plane import Plane
 from ..geometry.plane_fit import (PlaneFitResult, fit_apparatus_plane, fit_plane, fit_vertical_plane, plane_difference,
                                   triangulation_covariances)
-from ..scene import PlaneSpec, Scene, in_box
+from ..scene import Params, PlaneSpec, Scene, in_box
 from ..geometry.triangulation import triangulate_rig
 from .types import PLANE, TRIANGULATION, Target, Tracks3D, TrackResult
 
@@ -72,10 +72,8 @@ class PlaneEstimator:
                  scene: Scene | None = None, preset: Plane | None = None):
         self.min_views, self.threshold = min_views, threshold
         self.rig, self.preset = rig, preset
-        p = (scene.params if scene is not None else None)
-        self.pixel_sigma = p.pixel_sigma if p is not None else 2.0
-        self.box_sigma = p.box_sigma if p is not None else 0.03
-        self.stray = p.plane_sigma if p is not None else 0.25
+        p = scene.params if scene is not None else Params()  # (the detector noise and the plane's stray)
+        self.pixel_sigma, self.box_sigma, self.stray = p.pixel_sigma, p.box_sigma, p.plane_sigma
         self.on_apparatus = None if scene is None else on_apparatus(scene)
         self._target: list[np.ndarray] = []  # (n, 5): x, y, z, n_views, on the apparatus
         self._cov: list[np.ndarray] = []  # (n, 3, 3) with a rig and boxes
