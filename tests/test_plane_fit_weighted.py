@@ -162,3 +162,17 @@ def test_online_refinement_on_a_simulated_routine_moves_toward_the_true_plane():
     moved = track_detections(sim.rig, wrong, sim.detections, mode="cascade+").summary["plane_refinement"]
     off, ang = plane_difference(Plane(np.array(moved["point"]), np.array(moved["normal"])), true, focus)
     assert moved["moves"] >= 1 and off < 0.25 and ang < 7.0, (off, ang)  # from 0.3 m and 10 deg
+
+
+def test_plane_bench_refuses_an_unknown_fit_pass_before_reading_the_suite(tmp_path):
+    from typer.testing import CliRunner
+
+    from gymtrack.cli import app
+
+    # the suite folder does not exist: the option is checked first, and named
+    r = CliRunner().invoke(app, ["plane-bench", "-s", str(tmp_path / "no-suite"), "--fit-pass", "triangulate"])
+    from gymtrack.errors import InputError
+
+    assert r.exit_code != 0 and isinstance(r.exception, InputError)  # (gymtrack.cli.main prints it as "error: ...")
+    msg = str(r.exception)
+    assert "--fit-pass" in msg and "triangulation, cascade, both" in msg and "'triangulate'" in msg

@@ -66,10 +66,13 @@ def plane_bench(
     import numpy as np
 
     from gymtrack.eval.benchmark import read_suite
-    from gymtrack.eval.plane_bench import plane_experiment, plane_markdown, plane_table
+    from gymtrack.errors import InputError
+    from gymtrack.eval.plane_bench import FIT_PASSES, plane_experiment, plane_markdown, plane_table
     from gymtrack.formats.ground_truth import load_ground_truth
     from gymtrack.formats.routine import load_routine
 
+    if fit_pass not in FIT_PASSES:  # before any routine is read
+        raise InputError(f"--fit-pass must be one of {', '.join(FIT_PASSES)}, got {fit_pass!r}", field="--fit-pass")
     rows = []
     for spec in read_suite(suite):
         r = load_routine(spec.path)

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InputError
 from ..geometry.plane import Plane
 from ..geometry.plane_fit import plane_difference
 from ..scene import Scene
@@ -30,7 +31,7 @@ from ..tracking.plane_fit import REFINE_EVERY, fit_scene_planes, with_plane
 from ..tracking.offline import track_detections
 from .metrics import average_euclidean_distance
 
-__all__ = ["perturbed_plane", "plane_experiment", "plane_table", "plane_markdown"]
+__all__ = ["FIT_PASSES", "perturbed_plane", "plane_experiment", "plane_table", "plane_markdown"]
 
 
 
@@ -44,6 +45,10 @@ def perturbed_plane(plane: Plane, at: np.ndarray, shift: float, turn_deg: float)
     return Plane(on + shift * n, n)
 
 
+#: what the offline fit may read first (:func:`plane_experiment`'s ``fit_pass``)
+FIT_PASSES = ("triangulation", "cascade", "both")
+
+
 def plane_experiment(routine, gt, shift: float = 0.3, turn_deg: float = 10.0, mode: str = "cascade",
                      refine_every: int = REFINE_EVERY, fit_pass: str = "both") -> dict:
     """One routine (a loaded :class:`~gymtrack.formats.routine.Routine`) and its ground truth
@@ -52,6 +57,8 @@ def plane_experiment(routine, gt, shift: float = 0.3, turn_deg: float = 10.0, mo
     the first pass the fit reads, ``triangulation`` (needs no plane), ``cascade`` with the wrong
     plane (its two-view target frames re-triangulated from their boxes) or ``both`` (what
     ``planes: auto`` does: the cascade's target frames the triangulation pass lacks added)."""
+    if fit_pass not in FIT_PASSES:
+        raise InputError(f"fit_pass must be one of {', '.join(FIT_PASSES)}, got {fit_pass!r}", field="fit_pass")
     rig, scene, det = routine.rig, routine.scene, routine.detections
     true = Plane.from_spec(scene.planes[0])
     focus = scene.focus_point
@@ -67,8 +74,6 @@ def plane_experiment(routine, gt, shift: float = 0.3, turn_deg: float = 10.0, mo
 
     wrong = with_plane(scene, perturbed_plane(true, focus, shift, turn_deg))
     # the wrong plane is the preset: the fit's starting guess, kept where the data do not fix the direction
-    if fit_pass not in ("triangulation", "cascade", "both"):
-        raise ValueError(f"fit_pass must be triangulation, cascade or both, got {fit_pass!r}")
     first = track_detections(rig, wrong, det, mode="cascade" if fit_pass == "cascade" else "triangulation")
     extra = track_detections(rig, wrong, det, mode="cascade") if fit_pass == "both" else None
     fit = fit_scene_planes(first, wrong, rig=rig, extra=extra)
