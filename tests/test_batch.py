@@ -19,6 +19,7 @@ from typer.testing import CliRunner  # noqa: E402
 from gymtrack.batch import find_routines, output_complete, parse_steps, run_batch  # noqa: E402
 from gymtrack.batch.steps import METRIC_COLUMNS, metrics_of  # noqa: E402
 from gymtrack.errors import InputError  # noqa: E402
+from gymtrack.modes import DEFAULT_MODE
 
 
 @pytest.fixture(scope="module")
@@ -73,7 +74,7 @@ def test_batch_equals_each_routine_alone(suite, tmp_path):
         assert int(row["frames"]) == 300
         for k in METRIC_COLUMNS:
             assert want[k] is not None and float(row[k]) == pytest.approx(want[k], rel=1e-5), k
-        assert output_complete(got, ("track", "pose", "eval"), "cascade")
+        assert output_complete(got, ("track", "pose", "eval"), DEFAULT_MODE)
 
 
 def test_failures_are_isolated_and_a_second_run_redoes_only_them(suite, tmp_path):

@@ -19,6 +19,7 @@ from gymtrack.cli import app
 from gymtrack.errors import InputError, RoutineError
 from gymtrack.eval.score import score_output
 from gymtrack.formats.motchallenge import write_mot
+from gymtrack.modes import DEFAULT_MODE
 
 pytest.importorskip("motmetrics")
 
@@ -123,7 +124,7 @@ def test_eval_equals_benchmark(tmp_path):
     res = CliRunner().invoke(app, ["track", str(EXAMPLE), "--out", str(out)])
     assert res.exit_code == 0, res.output
     s = score_output(EXAMPLE, out)
-    bench = run_routine(RoutineSpec("bb", str(EXAMPLE), "balance_beam", 4, 7), ["cascade"])["rows"][0]
+    bench = run_routine(RoutineSpec("bb", str(EXAMPLE), "balance_beam", 4, 7), [DEFAULT_MODE])["rows"][0]
     assert bench["error"] == ""
     row = s["row"]
     assert set(row) <= set(bench)

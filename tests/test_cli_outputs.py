@@ -22,6 +22,7 @@ from typer.testing import CliRunner
 from gymtrack.cli import app
 from gymtrack.errors import InputError
 from gymtrack.formats.atomic import MARKER, atomic_output, atomic_update, checksums, is_gymtrack_output, read_marker
+from gymtrack.modes import DEFAULT_MODE
 
 REPO = Path(__file__).resolve().parents[1]
 runner = CliRunner()
@@ -237,4 +238,4 @@ def test_ctrl_c_one_line_exit_130_nothing_half_written(routine, tmp_path):
     assert len(text) == 1 and "interrupted" in text[0] and "untouched" in text[0], text
     assert checksums(out) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
-    assert json.loads((out / MARKER).read_text())["inputs"]["mode"] == "cascade"
+    assert json.loads((out / MARKER).read_text())["inputs"]["mode"] == DEFAULT_MODE
