@@ -133,3 +133,50 @@ def test_ghost_test_random_clusters_are_not_trivial():
         ghosts += len(tri) - len(kept)
         kept_two += int(((kept.members >= 0).sum(1) == 2).sum())
     assert ghosts > 5 and kept_two > 5
+
+
+@pytest.mark.parametrize("seed", range(25))
+def test_floor_split_matches_numpy(seed):
+    """The tracker's hook (one kernel call): a random part of the window to the plane, a few
+    ghosts' segments, Eq. 2 separations or an oracle, and Eq. 4 by place on a tracking space
+    that cuts some floor tracklets off."""
+    rng = np.random.default_rng(200 + seed)
+    rig = ring_rig(sorted(rng.choice(360, size=rng.integers(2, 5), replace=False)), radius=10.0, height=3.0)
+    segs = _window(rng, rig, rng.integers(0, 7))
+    K = len(segs)
+    pick = rng.permutation(K)
+    n_plane = int(rng.integers(0, K + 1))
+    to_plane = np.sort(pick[:n_plane]).astype(np.int64)
+    floor_only = pick[n_plane:n_plane + int(rng.integers(0, 3))].astype(np.int64)
+    D2 = rng.uniform(0, 40, (K, K))
+    D2 = (D2 + D2.T) / 2  # (Eq. 2 is symmetric)
+    params = SimpleNamespace(cluster_2d=30.0, cluster_plane=rng.choice([0.5, 1.5]), max_speed=rng.choice([0.1, 1.0]))
+    scene = SimpleNamespace(performance_space=tuple(SPACE), tracking_space=(-4.0, -4.5, 0.0, 5.0, 4.0, 4.5))
+    for d2, oracle in ((None, False), (D2, False), (None, True)):
+        counts, counts_r = {}, {}
+        for c in (counts, counts_r):
+            c.update(dict.fromkeys(("segments_to_floor", "tracklets_outliers", "floor_tracklets",
+                                    "segments_dropped_ghost"), 0))
+        fl, rest = floor.floor_split(segs, to_plane, d2, rig.arrays, params, scene, oracle, counts, floor_only)
+        fl_r, rest_r = ref.floor_split(segs, to_plane, d2, rig.arrays, params, scene, oracle, counts_r, floor_only)
+        assert counts == counts_r and rest.tolist() == rest_r.tolist()
+        assert (fl is None) == (fl_r is None)
+        if fl is not None:
+            _same_tracklets(fl, fl_r)
+
+
+def test_floor_split_random_cases_are_not_trivial():
+    """Over the random cases above the floor takes tracklets, Eq. 4 drops some and ghosts' segments go."""
+    counts = dict.fromkeys(("segments_to_floor", "tracklets_outliers", "floor_tracklets", "segments_dropped_ghost"), 0)
+    for seed in range(25):
+        rng = np.random.default_rng(200 + seed)
+        rig = ring_rig(sorted(rng.choice(360, size=rng.integers(2, 5), replace=False)), radius=10.0, height=3.0)
+        segs = _window(rng, rig, rng.integers(0, 7))
+        K = len(segs)
+        pick = rng.permutation(K)
+        n_plane = int(rng.integers(0, K + 1))
+        params = SimpleNamespace(cluster_2d=30.0, cluster_plane=rng.choice([0.5, 1.5]), max_speed=rng.choice([0.1, 1.0]))
+        scene = SimpleNamespace(performance_space=tuple(SPACE), tracking_space=(-4.0, -4.5, 0.0, 5.0, 4.0, 4.5))
+        floor.floor_split(segs, np.sort(pick[:n_plane]).astype(np.int64), None, rig.arrays, params, scene, False, counts,
+                          pick[n_plane:n_plane + int(rng.integers(0, 3))].astype(np.int64))
+    assert counts["floor_tracklets"] > 5 and counts["tracklets_outliers"] > 2 and counts["segments_dropped_ghost"] > 0

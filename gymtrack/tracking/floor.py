@@ -43,7 +43,6 @@ import numpy as np
 from ..geometry.arrays import PlaneArrays, RigArrays
 from ._kernels import floor as kernels
 from .plane_fallback import MIN_COS
-from .reconstruct import outliers_by_place
 from .types import INTERPOLATED, PLANE, WindowTracklets, WindowTracklets3D
 
 MIN_HEIGHT, MAX_HEIGHT = 0.7, 2.4  #: metres: a seated to a tall standing person's top (floor candidates)
@@ -136,40 +135,34 @@ def floor_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | No
     ids (``oracle``: ``track2d // C``) hold here as on the plane. Returns the floor tracklets
     after the outlier test (``members`` index ``segs``; None when none) and the segments left
     for the apparatus plane. ``floor_only``: segments that may go to the floor only (the ghosts'
-    of :func:`drop_floor_ghosts`; dropped, and counted, when the floor does not take them)."""
-    C = len(rig.K)
-    n_plane = len(to_plane)
-    if floor_only is not None and len(floor_only):
-        to_plane = np.concatenate([to_plane, floor_only])
-    if not len(to_plane):
+    of :func:`drop_floor_ghosts`; dropped, and counted, when the floor does not take them).
+
+    One kernel call (:func:`._kernels.floor.floor_split`: the segments taken out of the
+    window's arrays, Eq. 2's separations, :func:`floor_stage`'s kernel and Eq. 4 by place):
+    the Python around it cost more than the work (numpy reference: ``tests/reference/floor.py``)."""
+    fo = _NO_INDEX if floor_only is None else floor_only
+    if not len(to_plane) + len(fo):
         return None, to_plane
-    # only the arrays the floor reads are taken (a full ``segs.subset`` copies seven), and the
-    # kernel's output becomes one WindowTracklets3D, after the outlier test (a few us a window)
-    apart = None if D2 is None else D2[to_plane][:, to_plane] >= params.cluster_2d  # (two takes: cheaper than np.ix_)
-    labels = np.unique(segs.track2d[to_plane] // C, return_inverse=True)[1] if oracle else None
-    xyz, top, bottom, valid, source, n_views, members, used = kernels.floor_stage(
-        _f64(segs.box[to_plane]), _c(segs.valid[to_plane]), _c(segs.observed[to_plane]), _c(segs.camera[to_plane], np.int64),
-        rig, _space(scene.performance_space), kernels.NO_APART if apart is None else _c(apart, bool),
-        kernels.NO_GROUP if labels is None else _c(labels, np.int64), _rules(params.cluster_plane))
-    counts["segments_to_floor"] += int(np.count_nonzero(used))
+    xyz, top, bottom, valid, source, n_views, members, rest, stats = kernels.floor_split(
+        segs.box, segs.valid, segs.observed, segs.camera, to_plane, fo, _NO_D2 if D2 is None else D2,
+        float(params.cluster_2d), segs.track2d // len(rig.K) if oracle else kernels.NO_GROUP, rig,
+        _space(scene.performance_space), _tracking_space(scene), float(params.max_speed), _rules(params.cluster_plane))
+    taken, n_outliers, n_ghost = stats.tolist()
+    counts["segments_to_floor"] += taken
+    if n_outliers:  # Eq. 4, as for every 3D tracklet
+        counts["tracklets_outliers"] += n_outliers
     fl = None
     if len(members):
-        bad = outliers_by_place(xyz, valid, _tracking_space(scene), params.max_speed)
-        if bad.any():  # Eq. 4, as for every 3D tracklet
-            keep = np.flatnonzero(~bad)  # (integer takes: cheaper than a mask per column)
-            counts["tracklets_outliers"] += len(bad) - len(keep)
-            xyz, top, bottom, valid, source, n_views, members = (
-                a[keep] for a in (xyz, top, bottom, valid, source, n_views, members))
-        if len(members):
-            fl = WindowTracklets3D(segs.start, xyz, top, bottom, valid, source, n_views,
-                                   np.where(members >= 0, to_plane[np.maximum(members, 0)], -1),
-                                   np.full(len(members), -1, np.int64))
-            counts["floor_tracklets"] += len(fl)
-    rest = ~used
-    if rest[n_plane:].any():
-        counts["segments_dropped_ghost"] += int(rest[n_plane:].sum())
-        rest[n_plane:] = False
-    return fl, to_plane[rest]  # (to_plane[:n_plane] is sorted, the ghosts' are not kept)
+        fl = WindowTracklets3D(segs.start, xyz, top, bottom, valid, source, n_views, members,
+                               np.full(len(members), -1, np.int64))
+        counts["floor_tracklets"] += len(fl)
+    if n_ghost:
+        counts["segments_dropped_ghost"] += n_ghost
+    return fl, rest  # (in to_plane's order; the ghosts' are not kept)
+
+
+_NO_INDEX = np.zeros(0, np.int64)
+_NO_D2 = np.zeros((0, 0))
 
 
 AIR = 0.25  #: metres: a body whose bottom is higher than this has left the floor
