@@ -140,11 +140,39 @@ def test_new_tracks_kernel_equals_numpy_reference():
         frame = np.sort(rng.integers(90, 115, 80))
         track2d = rng.integers(0, 30, 80)
         seen = rng.choice(30, rng.integers(0, 10), replace=False)
-        got = kernels.new_tracks(frame, track2d, 100, 110, 105, seen)
-        want = new_tracks_numpy(frame, track2d, 100, 110, 105, seen)
-        assert got.dtype == want.dtype and np.array_equal(got, want)
-        found += len(got)
-    assert found > 100
+        for spread in (1, 100_003):  # small ids (a table over their range) and spread ones (sorted)
+            got = kernels.new_tracks(frame, track2d * spread, 100, 110, 105, seen * spread)
+            want = new_tracks_numpy(frame, track2d * spread, 100, 110, 105, seen * spread)
+            assert got.dtype == want.dtype and np.array_equal(got, want)
+            found += len(got)
+    assert found > 200
+
+
+def test_new_near_is_new_tracks_and_the_first_round_within_the_gate():
+    """MotionLinker.step's one call: the new tracks, and whether the first round's costs (the
+    reference's) have one within the gate; without ends that apply, never near."""
+    rng = np.random.default_rng(11)
+    near_seen = far_seen = 0
+    for _ in range(200):
+        M, C = int(rng.integers(1, 8)), 4
+        ids = np.where(rng.random((M, C)) < 0.7, rng.integers(0, 6, (M, C)), -1)
+        ends = (C, ids, rng.integers(95, 108, (M, C)), rng.permutation(50)[:M], rng.integers(98, 106, M),
+                rng.uniform(-3, 3, (M, 3)), rng.normal(0, 0.2, (M, 3)))
+        frame, track2d, camera, ubox, *_, P = _random_round(rng)
+        seen = rng.choice(12, rng.integers(0, 6), replace=False)
+        new_r = new_tracks_numpy(frame, track2d, 100, 110, 105, seen)
+        cam_o, t_o, last_o, _, lf, lx, lv = old_entries_numpy(*ends)
+        D = link_costs_numpy(frame, track2d, camera, ubox, new_r, cam_o, t_o, last_o, lf, lx, lv, P, 3, 5)
+        finite = D[np.isfinite(D)]
+        gate = float(rng.choice(finite)) * rng.choice([0.999, 1.0]) if len(finite) else 0.5  # at a cost and just below
+        near_r = bool((D <= gate).any())
+        for apply in (True, False):
+            new, near = kernels.new_near(*ends, frame, track2d, camera, ubox, 100, 110, 105, seen, P, 3, 5, gate, apply)
+            assert np.array_equal(new, new_r)
+            assert near == (apply and near_r)
+        near_seen += near_r
+        far_seen += len(new_r) > 0 and not near_r
+    assert near_seen > 10 and far_seen > 10
 
 
 def test_old_entries_kernel_equals_numpy_reference():

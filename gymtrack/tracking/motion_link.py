@@ -97,21 +97,25 @@ class MotionLinker:
         lost view are renamed (in ``rows``, the :class:`~.records.BoxTable` columns, and in the
         IoU tracker). ``seen``: the 2D tracks of the previous window's segments."""
         frame, track2d = rows["frame"], rows["track2d"]
+        cam, ubox = rows["camera"], rows["ubox"]  # (int64, float64, C order: the BoxTable's columns)
         fresh_from = start + self.width - self.step_frames  # frames no earlier window covered
-        # (compiled: the rows are in frame order, a track's first row in the window its first box)
-        new = kernels.new_tracks(frame, track2d, start, start + self.width, fresh_from,
-                                 np.ascontiguousarray(seen, np.int64))
-        linked = 0
-        if len(new) and self.ends and self.start == start - self.step_frames:
-            linked = self._link(new, frame, track2d, rows, iou)
+        # (compiled, one call: the rows are in frame order, a track's first row in the window its
+        # first box; then the first round's costs, when the ends are the previous window's)
+        ends_apply = bool(self.ends) and self.start == start - self.step_frames
+        new, near = kernels.new_near(*(self.ends or self._no_ends(len(self.P))), frame, track2d, cam, ubox, start,
+                                     start + self.width, fresh_from, np.ascontiguousarray(seen, np.int64), self.P,
+                                     FRAMES, self.max_gap, self.gate, ends_apply)
+        linked = self._link(new, frame, track2d, cam, ubox, iou) if near else 0  # (usually nothing is near)
         self.counts["links_3d_motion"] += linked
         self.counts["new_2d_tracks_unlinked"] += len(new) - linked
 
-    def _link(self, new: np.ndarray, frame: np.ndarray, track2d: np.ndarray, rows: dict, iou: IoUTracker) -> int:
-        cam, ubox = np.ascontiguousarray(rows["camera"], np.int64), np.ascontiguousarray(rows["ubox"], np.float64)
-        D = kernels.first_costs(*self.ends, frame, track2d, cam, ubox, new, self.P, FRAMES, self.max_gap)
-        if not (D <= self.gate).any():  # the usual case: nothing to link, one compiled call
-            return 0
+    @staticmethod
+    def _no_ends(C: int) -> tuple:
+        i = np.zeros(0, np.int64)
+        return C, np.zeros((0, C), np.int64), np.zeros((0, C), np.int64), i, i, np.zeros((0, 3)), np.zeros((0, 3))
+
+    def _link(self, new: np.ndarray, frame: np.ndarray, track2d: np.ndarray, cam: np.ndarray, ubox: np.ndarray,
+              iou: IoUTracker) -> int:
         # one entry per old 2D track: its view, 2D track, last frame seen, 3D track and end (compiled)
         cam_o, t_o, last_o, tid, lf, lx, lv = kernels.old_entries(*self.ends)
         linked = 0

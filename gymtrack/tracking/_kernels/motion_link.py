@@ -5,7 +5,7 @@
 projected constant-velocity prediction and the view / gap gates -- in one call instead of ~40
 numpy calls (the arrays are a window's: ~15 old entries, ~3 new tracks). :func:`window_ends`:
 what :meth:`~gymtrack.tracking.motion_link.MotionLinker.remember` keeps per (tracklet, view);
-:func:`new_tracks`: a window's new 2D tracks; :func:`old_entries`: the previous window's, one
+:func:`new_tracks`: a window's new 2D tracks (:func:`new_near`: and whether the first round links any); :func:`old_entries`: the previous window's, one
 entry per 2D track; :func:`keep_views`: the 2D track a view without a member keeps; :func:`first_costs`: the first
 round in one call.
 The numpy code they replace is ``tests/reference/motion_link.py``; the arithmetic is written in
@@ -140,9 +140,45 @@ def new_tracks(frame, track2d, start, stop, fresh_from, seen):
     ``start .. stop - 1`` whose first box there lies at ``fresh_from`` or later and which are
     not among ``seen`` (M,)."""
     a = np.searchsorted(frame, start)
-    f = np.searchsorted(frame, fresh_from)
+    f = max(np.searchsorted(frame, fresh_from), a)
     b = np.searchsorted(frame, stop)
-    fresh = np.sort(track2d[max(f, a):b])
+    if f >= b:
+        return np.zeros(0, np.int64)
+    lo, hi = track2d[f], track2d[f]
+    for i in range(f, b):
+        lo = min(lo, track2d[i])
+        hi = max(hi, track2d[i])
+    span = hi - lo + 1
+    if span > 8 * (b - f) + 256:  # ids too spread out for a table over their range
+        return _new_tracks_sorted(frame, track2d, a, f, b, seen)
+    # ids are small integers: one table over the fresh rows' id range (no sort, no search)
+    state = np.zeros(span, np.int8)  # 1: a fresh row's track, 2: not new
+    for i in range(f, b):
+        state[track2d[i] - lo] = 1
+    for i in range(a, f):  # a track with a box before fresh_from is not new
+        r = track2d[i] - lo
+        if r >= 0 and r < span:
+            state[r] = 2
+    for q in range(len(seen)):
+        r = seen[q] - lo
+        if r >= 0 and r < span:
+            state[r] = 2
+    n = 0
+    for r in range(span):
+        n += state[r] == 1
+    out = np.empty(n, np.int64)
+    n = 0
+    for r in range(span):
+        if state[r] == 1:
+            out[n] = lo + r
+            n += 1
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def _new_tracks_sorted(frame, track2d, a, f, b, seen):
+    """:func:`new_tracks` of the rows ``a .. b - 1`` (fresh from ``f``) by sorting the fresh rows' ids."""
+    fresh = np.sort(track2d[f:b])
     cand = np.empty(len(fresh), np.int64)  # the fresh frames' tracks, once each (a handful)
     n = 0
     for p in range(len(fresh)):
@@ -151,11 +187,8 @@ def new_tracks(frame, track2d, start, stop, fresh_from, seen):
             n += 1
     cand = cand[:n]
     keep = np.ones(n, np.bool_)
-    if n == 0:
-        return cand
-    # a track with a box before fresh_from is not new; each earlier row is looked up among the
-    # few candidates (no sort of the window's earlier rows, the many)
-    for i in range(a, min(f, b)):
+    # each earlier row is looked up among the few candidates (no sort of the many)
+    for i in range(a, f):
         k = np.searchsorted(cand, track2d[i])
         if k < n and cand[k] == track2d[i]:
             keep[k] = False
@@ -164,6 +197,24 @@ def new_tracks(frame, track2d, start, stop, fresh_from, seen):
         if k < n and cand[k] == seen[q]:
             keep[k] = False
     return cand[keep]
+
+
+@njit(cache=True, error_model="numpy")
+def new_near(C, ids, last_obs, track_id, lf, lx, lv, frame, track2d, camera, ubox, start, stop, fresh_from, seen, P, n,
+             max_gap, gate, ends_apply):
+    """:class:`~gymtrack.tracking.motion_link.MotionLinker`'s step up to its first decision, in
+    one call: the window's new 2D tracks (:func:`new_tracks`) and whether any lies within the
+    gate (``D <= gate``) of the first round's costs (:func:`first_costs`, computed only when
+    there are new tracks and ``ends_apply``: the ends are the previous window's)."""
+    new = new_tracks(frame, track2d, start, stop, fresh_from, seen)
+    near = False
+    if len(new) and ends_apply:
+        D = first_costs(C, ids, last_obs, track_id, lf, lx, lv, frame, track2d, camera, ubox, new, P, n, max_gap)
+        for v in D.ravel():
+            if v <= gate:  # (NaN compares False)
+                near = True
+                break
+    return new, near
 
 
 @njit(cache=True, error_model="numpy")
@@ -241,4 +292,6 @@ def warm_up() -> None:
     old_entries(2, np.zeros((1, 2), np.int64), np.zeros((1, 2), np.int64), i1, i1, np.zeros((1, 3)), np.zeros((1, 3)))
     first_costs(2, np.zeros((1, 2), np.int64), np.zeros((1, 2), np.int64), i1, i1, np.zeros((1, 3)), np.zeros((1, 3)),
                 i1, i1, i1, np.ones((1, 4)), i1, P, 3, 5)
+    new_near(2, np.zeros((1, 2), np.int64), np.zeros((1, 2), np.int64), i1, i1, np.zeros((1, 3)), np.zeros((1, 3)),
+             i1, i1, i1, np.ones((1, 4)), 0, 4, 2, i1, P, 3, 5, 1.0, True)
     link_costs(i1, i1, i1, np.ones((1, 4)), i1, i1, i1 - 1, i1, i1, np.zeros((1, 3)), np.zeros((1, 3)), P, 3, 5)
