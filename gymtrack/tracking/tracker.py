@@ -69,7 +69,7 @@ from .exclusion import suppress_duplicates
 from .fusion import PlaneRayFusion
 from .linking import WindowLinker
 from .motion_link import MotionLinker
-from .plane_fallback import plane_stage
+from .plane_fallback import plane_split, plane_stage
 from .plane_fit import REFINE_EVERY
 from .plane_refine import PlaneRefiner
 from .reconstruct import cluster_members, opposite_clusters, outliers, outliers_by_place, triangulate_clusters
@@ -125,6 +125,7 @@ class Tracker:
         self.planes = [Plane.from_spec(s) for s in scene.planes]
         self.plane_arrays = PlaneArrays.from_planes(self.planes)  # the planes as the plane kernel takes them
         self.space = np.asarray(scene.tracking_space, dtype=np.float64)
+        self.perf_space = np.asarray(scene.performance_space, dtype=np.float64)  # S_perf
         # (C, C) opposite camera pairs, judged at the scene's focus, the apparatus (see reconstruct)
         self.opposite = opposite_pairs(rig, scene.focus_point, p.opposite_angle_deg)
         warm_up()  # numba's compile / cache load of every kernel: once per process, never tracking time
@@ -351,6 +352,10 @@ class Tracker:
                                           self.counts, self._floor_only)
         if not len(to_plane):
             return None, floor
+        if self.plus and self.fusion is None:  # the same steps as below in one compiled call
+            return plane_split(segs, to_plane, D2, self.rig.arrays, self.plane_arrays, p, self.association == "oracle",
+                               self.linker.prev_2d, self.linker.prev_seen, self.space,
+                               self.perf_space, self.counts), floor
         sub = segs.subset(to_plane)
         plane_labels = None
         if self.association == "oracle":
