@@ -180,3 +180,41 @@ def test_floor_split_random_cases_are_not_trivial():
         floor.floor_split(segs, np.sort(pick[:n_plane]).astype(np.int64), None, rig.arrays, params, scene, False, counts,
                           pick[n_plane:n_plane + int(rng.integers(0, 3))].astype(np.int64))
     assert counts["floor_tracklets"] > 5 and counts["tracklets_outliers"] > 2 and counts["segments_dropped_ghost"] > 0
+
+
+@pytest.mark.parametrize("seed", range(25))
+def test_ghost_confirmation_by_the_previous_windows_owners_matches_numpy(seed):
+    """The tracker's form (prev_2d, prev_owner): the 2D tracks of the previous window's
+    tracklets (some of this window's, some gone) and their 3D tracks, against the numpy test
+    with the per-segment owners they give."""
+    segs, rig, tri, params, scene = _ghost_case(seed)
+    rng = np.random.default_rng(400 + seed)
+    K = len(segs)
+    prev_2d = rng.permutation(np.r_[segs.track2d[rng.random(K) < 0.7], 1000 + np.arange(3)]).astype(np.int64)
+    prev_owner = rng.integers(0, 2, len(prev_2d)).astype(np.int64)  # few tracks: pairs often share one
+    by_2d = dict(zip(prev_2d.tolist(), prev_owner.tolist()))
+    owner = np.array([by_2d.get(t, -1) for t in segs.track2d.tolist()], np.int64)
+    for pl in ([], PLANES):
+        counts, counts_r = {"floor_ghosts": 0, "floor_ghosts_confirmed": 0}, {"floor_ghosts": 0, "floor_ghosts_confirmed": 0}
+        kept, out = floor.drop_floor_ghosts(tri, segs, rig.arrays, pl, params, scene, counts, (prev_2d, prev_owner))
+        kept_r, out_r = ref.drop_floor_ghosts(tri, segs, rig.arrays, pl, params, scene, counts_r, owner)
+        assert counts == counts_r and out.tolist() == out_r.tolist()
+        _same_tracklets(kept, kept_r)
+        for o in (owner, lambda: owner):  # the per-segment forms
+            counts_o = {"floor_ghosts": 0, "floor_ghosts_confirmed": 0}
+            kept_o, out_o = floor.drop_floor_ghosts(tri, segs, rig.arrays, pl, params, scene, counts_o, o)
+            assert counts_o == counts_r and out_o.tolist() == out_r.tolist()
+
+
+def test_ghost_confirmation_cases_are_not_trivial():
+    confirmed = 0
+    for seed in range(25):
+        segs, rig, tri, params, scene = _ghost_case(seed)
+        rng = np.random.default_rng(400 + seed)
+        K = len(segs)
+        prev_2d = rng.permutation(np.r_[segs.track2d[rng.random(K) < 0.7], 1000 + np.arange(3)]).astype(np.int64)
+        prev_owner = rng.integers(0, 2, len(prev_2d)).astype(np.int64)
+        counts = {"floor_ghosts": 0, "floor_ghosts_confirmed": 0}
+        floor.drop_floor_ghosts(tri, segs, rig.arrays, PLANES, params, scene, counts, (prev_2d, prev_owner))
+        confirmed += counts["floor_ghosts_confirmed"]
+    assert confirmed > 3

@@ -184,31 +184,33 @@ def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig:
     (the test is for new, wrong pairings; issue 12: it also took the target's own pair in the
     air off the apparatus plane, e.g. on the pommel horse). Trade: a wrong pair that survived one
     window keeps surviving while both its 2D tracks last (+4 to +7 % false positives on the
-    suite, -0.005 MOTA). Returns the clusters kept
+    suite, -0.005 MOTA). ``owner`` may also be the tracker's ``(prev_2d, prev_owner)``: the 2D
+    tracks of the previous window's tracklets and their 3D tracks (:class:`~.linking.WindowLinker`).
+    Returns the clusters kept
     and the ghosts' segments (indices into ``segs``, for the floor stage only). One kernel call
-    (:func:`._kernels.floor.ghost_test`).
+    (:func:`._kernels.floor.ghost_split`: :func:`._kernels.floor.ghost_test` and the confirmation).
     """
-    none = np.zeros(0, np.int64)
     if tri is None or not len(tri):
-        return tri, none
-    ghost = kernels.ghost_test(
-        _c(tri.members, np.int64), _c(tri.valid), _f64(tri.bottom_z), _f64(tri.xyz), _f64(segs.box), _c(segs.valid),
-        _c(segs.observed), _c(segs.camera, np.int64), rig, PlaneArrays.from_planes(planes),
-        _space(scene.performance_space), AIR, MIN_COS, _rules(params.cluster_plane))
-    if not ghost.any():  # the usual window: no ghost, nothing more to look up
-        return tri, none
-    if owner is not None:  # a pair already one track's in the last window is confirmed
-        owner = owner() if callable(owner) else owner  # (the tracker's look-up: only when needed)
-        o = np.where(tri.members >= 0, owner[np.maximum(tri.members, 0)], -2)
-        lo = np.where(tri.members >= 0, o, np.iinfo(np.int64).max).min(axis=1)
-        confirmed = (lo >= 0) & ((o == lo[:, None]) | (tri.members < 0)).all(axis=1)
-        counts["floor_ghosts_confirmed"] += int((ghost & confirmed).sum())
-        ghost &= ~confirmed
-        if not ghost.any():
-            return tri, none
-    counts["floor_ghosts"] += int(ghost.sum())
-    pair = np.sort(tri.members[ghost], axis=1)[:, -2:]  # (n, 2) the two segments
-    return tri.subset(~ghost), np.sort(pair.ravel())
+        return tri, _NO_INDEX
+    if owner is None:
+        prev_2d = prev_owner = _NO_INDEX
+    elif isinstance(owner, tuple):
+        prev_2d, prev_owner = owner
+    else:  # (K,) per segment, or a callable giving it
+        prev_2d, prev_owner = segs.track2d, np.asarray(owner() if callable(owner) else owner, np.int64)
+    ghost, pair, stats = kernels.ghost_split(
+        tri.members, tri.valid, tri.bottom_z, tri.xyz, segs.box, segs.valid, segs.observed, segs.camera, segs.track2d,
+        prev_2d, prev_owner, owner is not None, rig, PlaneArrays.from_planes(planes), _space(scene.performance_space),
+        AIR, MIN_COS, _rules(params.cluster_plane))
+    if not stats[0]:  # the usual window: no ghost
+        return tri, _NO_INDEX
+    _, confirmed, n = stats.tolist()
+    if owner is not None:
+        counts["floor_ghosts_confirmed"] += confirmed
+    if not n:
+        return tri, _NO_INDEX
+    counts["floor_ghosts"] += n
+    return tri.subset(~ghost), pair
 
 
 def solo_inside(pl: WindowTracklets3D, space: np.ndarray, counts: dict) -> WindowTracklets3D:

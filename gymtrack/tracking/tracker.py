@@ -334,7 +334,7 @@ class Tracker:
             tri = tri.subset(~bad)
         if self.plus:  # the floor's ghost test; a ghost's segments may go to the floor only
             tri, self._floor_only = drop_floor_ghosts(tri, segs, self.rig.arrays, self.plane_arrays, p, self.scene, self.counts,
-                                                      lambda: self.linker.owners(segs.track2d))
+                                                      (self.linker.prev_2d, self.linker.prev_owner))
         if self.refiner is not None:  # the plane's points: what passed the tests, and the opposite pairs
             self.refiner.observe(segs, tri, members[fallback & ((members >= 0).sum(axis=1) >= 2)])
         self.counts["clusters_triangulated"] += len(tri)

@@ -148,7 +148,7 @@ def _crosses(a: np.ndarray, b: np.ndarray, box: np.ndarray) -> np.ndarray:
 
 
 def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig: RigArrays, planes, params, scene,
-                      counts: dict) -> tuple[WindowTracklets3D | None, np.ndarray]:
+                      counts: dict, owner: np.ndarray | None = None) -> tuple[WindowTracklets3D | None, np.ndarray]:
     """``cascade+``: the two-view triangulated clusters the floor says are ghosts (a wrong pair
     of two people's segments triangulates to a short body floating above the floor).
 
@@ -185,6 +185,15 @@ def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig:
     ghost = outside | far
     if not ghost.any():
         return tri, none
+    if owner is not None:  # (K,) the previous window's track of each segment: a pair of one track is confirmed
+        mem = tri.members[cand]
+        o = np.where(mem >= 0, owner[np.maximum(mem, 0)], -2)
+        lo = np.where(mem >= 0, o, np.iinfo(np.int64).max).min(axis=1)
+        confirmed = (lo >= 0) & ((o == lo[:, None]) | (mem < 0)).all(axis=1)
+        counts["floor_ghosts_confirmed"] += int((ghost & confirmed).sum())
+        ghost &= ~confirmed
+        if not ghost.any():
+            return tri, none
     bad = np.zeros(len(tri), bool)
     bad[cand[ghost]] = True
     counts["floor_ghosts"] += int(ghost.sum())

@@ -357,6 +357,58 @@ def ghost_test(members, valid3, bottom_z, xyz, box, valid, observed, camera, rig
     return ghost
 
 
+@njit(cache=True, error_model="numpy")
+def ghost_split(members, valid3, bottom_z, xyz, box, valid, observed, camera, track2d, prev_2d, prev_owner, confirm,
+                rig, planes, space, air, min_cos, rules):
+    """:func:`ghost_test` and what :func:`gymtrack.tracking.floor.drop_floor_ghosts` does with it, in
+    one call. track2d (K,): the segments' 2D tracks; ``confirm``: a ghost whose 2D tracks were all
+    members of one 3D track of the previous window (``prev_owner`` (n,) of the 2D tracks
+    ``prev_2d`` (n,); -1 / none found: no track) is kept. Returns ghost (M,) bool, the ghosts'
+    segments (sorted) and (3,) int64: any ghost before the confirmation (0 / 1), ghosts
+    confirmed, ghosts."""
+    ghost = ghost_test(members, valid3, bottom_z, xyz, box, valid, observed, camera, rig, planes, space, air, min_cos,
+                       rules)
+    M, C = members.shape
+    stats = np.zeros(3, np.int64)
+    for m in range(M):
+        stats[2] += ghost[m]
+    if stats[2] == 0:
+        return ghost, np.zeros(0, np.int64), stats
+    stats[0] = 1
+    if confirm:
+        known = len(prev_2d) > 0 and len(prev_owner) == len(prev_2d)
+        for m in range(M):
+            if not ghost[m]:
+                continue
+            first, same = -2, True  # every member's owner one and the same track (>= 0)
+            for c in range(C):
+                k = members[m, c]
+                if k < 0:
+                    continue
+                o = -1
+                if known:
+                    for q in range(len(prev_2d)):
+                        if prev_2d[q] == track2d[k]:
+                            o = prev_owner[q]
+                            break
+                if o < 0 or (first != -2 and o != first):
+                    same = False
+                first = o
+            if same and first >= 0:
+                ghost[m] = False
+                stats[1] += 1
+        stats[2] -= stats[1]
+    pair = np.empty(2 * stats[2], np.int64)
+    n = 0
+    for m in range(M):
+        if ghost[m]:
+            for c in range(C):
+                if members[m, c] >= 0:
+                    pair[n] = members[m, c]
+                    n += 1
+    return ghost, np.sort(pair[:n]), stats
+
+
 def warm_up() -> None:
     """Compile (or load) both kernels on the sample person's two views, with and without
     constraints."""
@@ -376,3 +428,7 @@ def warm_up() -> None:
                     person, rig, space, space, 0.5, rules)
     ghost_test(np.array([[0, 1]], np.int64), np.ones((M, W), bool), np.ones((M, W)), np.ones((M, W, 3)), s.box,
                valid, s.observed, s.camera, rig, PlaneArrays.from_planes(s.planes), space, 0.25, 1e-3, rules)
+    i2 = np.arange(2, dtype=np.int64)
+    ghost_split(np.array([[0, 1]], np.int64), np.ones((M, W), bool), np.ones((M, W)), np.ones((M, W, 3)), s.box,
+                valid, s.observed, s.camera, i2, i2, i2, True, rig, PlaneArrays.from_planes(s.planes), space, 0.25, 1e-3,
+                rules)
