@@ -72,7 +72,7 @@ from .motion_link import MotionLinker
 from .plane_fallback import plane_split, plane_stage
 from .plane_fit import REFINE_EVERY
 from .plane_refine import PlaneRefiner
-from .reconstruct import cluster_members, opposite_clusters, outliers, outliers_by_place, triangulate_clusters
+from .reconstruct import cluster_members, fallback_segments, opposite_clusters, outliers, outliers_by_place, triangulate_clusters
 from .single_view import IoUTracker
 from .single_view_motion import MotionIoUTracker, needs_motion
 from .target import TargetStage
@@ -321,8 +321,7 @@ class Tracker:
             fallback = ~multi | opposite_clusters(members, self.opposite)
             if self.fusion is not None:  # cascade+: two-view clusters fused with the plane (.fusion)
                 fused, fallback, multi = self.fusion.step(segs, members, fallback, multi)
-            back = members[fallback].ravel()
-            to_plane = np.sort(back[back >= 0])
+            to_plane = fallback_segments(members, fallback)  # (sorted)
             multi &= ~fallback
         else:
             self.counts["segments_dropped_single"] += int(np.count_nonzero(~multi))
