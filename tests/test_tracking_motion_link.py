@@ -133,6 +133,30 @@ def test_window_ends_kernels_equal_numpy_reference_bitwise():
             assert a.dtype == b.dtype and np.array_equal(a, b)
 
 
+def test_remember_kernel_equals_the_numpy_steps():
+    """MotionLinker.remember's one call: the ends, last observed frames, the views' 2D tracks and
+    what a view without a member keeps (the previous rows' or -1; no segments: zeros, never seen)."""
+    rng = np.random.default_rng(5)
+    for _ in range(100):
+        M, W, C, K, P = 7, 10, 4, int(rng.choice([0, 9])), int(rng.integers(0, 6))
+        valid = rng.random((M, W)) < 0.6
+        valid[np.arange(M), rng.integers(0, W, M)] = True
+        xyz = rng.normal(0, 2, (M, W, 3))
+        members = np.where(rng.random((M, C)) < 0.7, rng.integers(0, max(K, 1), (M, C)), -1) if K else np.full((M, C), -1)
+        observed = rng.random((K, W)) < 0.5
+        track2d = rng.permutation(100)[:K].astype(np.int64)
+        track_id = rng.permutation(12)[:M].astype(np.int64)
+        prev_track_id, prev_ids = rng.integers(0, 12, P), rng.integers(-1, 50, (P, C))
+        lf, lx, lv, last_obs = window_ends_numpy(xyz, valid, 40, 0.25, members, observed if K else np.zeros((1, W), bool),
+                                                 40)
+        ids = track2d[np.maximum(members, 0)] if K else np.zeros((M, C), np.int64)
+        want = (lf, lx, lv, last_obs, keep_views_numpy(members, ids, track_id, prev_track_id, prev_ids), track_id)
+        got = kernels.remember(xyz, valid, 40, 0.25, members, observed, 40, track2d, track_id, prev_track_id, prev_ids)
+        for a, b in zip(got, want):
+            assert a.dtype == b.dtype and np.array_equal(a, b)
+        assert got[-1] is not track_id  # (a copy: kept across windows)
+
+
 def test_new_tracks_kernel_equals_numpy_reference():
     rng = np.random.default_rng(6)
     found = 0

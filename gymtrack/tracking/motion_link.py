@@ -75,20 +75,11 @@ class MotionLinker:
         if not M:
             self.ends, self.view_ids, self.view_track = (), np.zeros(0, np.int64), np.zeros((0, C), np.int64)
             return
-        # (compiled: tracklet_ends and the last observed frames, :mod:`._kernels.motion_link`)
-        lf, lx, lv = kernels.tracklet_ends(np.ascontiguousarray(cur.xyz, np.float64), np.ascontiguousarray(cur.valid),
-                                           cur.start, self.max_speed)
-        members, tid = np.ascontiguousarray(cur.members, np.int64), cur.track_id.astype(np.int64)  # (a copy: kept)
-        if len(segs):
-            last_obs = kernels.last_observed(members, np.ascontiguousarray(segs.observed), segs.start)
-            ids = np.ascontiguousarray(segs.track2d[np.maximum(members, 0)], np.int64)
-        else:
-            last_obs, ids = np.full((M, C), -1 << 40, np.int64), np.zeros((M, C), np.int64)
-        # a view without a member keeps the 2D track it had (or adopted) before (compiled)
-        if len(self.view_track):
-            ids = kernels.keep_views(members, ids, tid, self.view_ids, self.view_track)
-        else:
-            ids[members < 0] = -1
+        # (compiled, one call: tracklet_ends, the last observed frames, the views' 2D tracks and
+        # what a view without a member keeps, :func:`._kernels.motion_link.remember`)
+        lf, lx, lv, last_obs, ids, tid = kernels.remember(
+            cur.xyz, cur.valid, cur.start, self.max_speed, cur.members, segs.observed, segs.start, segs.track2d,
+            cur.track_id, self.view_ids, self.view_track)
         self.view_ids, self.view_track = tid, ids
         self.ends = (C, ids, last_obs, tid, lf, lx, lv)  # (spread per view only when a link is tried)
 

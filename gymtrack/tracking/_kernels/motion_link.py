@@ -3,7 +3,7 @@
 :func:`link_costs`: one round of :class:`gymtrack.tracking.motion_link.MotionLinker` -- the old
 2D tracks' last boxes, the new tracks' first boxes and views, the (L, T) mean offset from the
 projected constant-velocity prediction and the view / gap gates -- in one call instead of ~40
-numpy calls (the arrays are a window's: ~15 old entries, ~3 new tracks). :func:`window_ends`:
+numpy calls (the arrays are a window's: ~15 old entries, ~3 new tracks). :func:`remember`:
 what :meth:`~gymtrack.tracking.motion_link.MotionLinker.remember` keeps per (tracklet, view);
 :func:`new_tracks`: a window's new 2D tracks (:func:`new_near`: and whether the first round links any); :func:`old_entries`: the previous window's, one
 entry per 2D track; :func:`keep_views`: the 2D track a view without a member keeps; :func:`first_costs`: the first
@@ -278,6 +278,29 @@ def first_costs(C, ids, last_obs, track_id, lf, lx, lv, frame, track2d, camera, 
     return link_costs(frame, track2d, camera, ubox, new, cam_o, t_o, last_o, f, x, v, P, n, max_gap)
 
 
+@njit(cache=True, error_model="numpy")
+def remember(xyz, valid, start, max_speed, members, observed, seg_start, track2d, track_id, prev_track_id, prev_ids):
+    """What :meth:`~gymtrack.tracking.motion_link.MotionLinker.remember` keeps of a linked window,
+    in one call: :func:`tracklet_ends` of xyz (M, W, 3), valid (M, W); per (tracklet, view) of
+    ``members`` (M, C) its segment's 2D track (``track2d`` (K,)) and :func:`last_observed` frame
+    (``observed`` (K, W) from ``seg_start``; K = 0: none), a view without a member the 2D track
+    :func:`keep_views` gives (``prev_track_id`` (P,), ``prev_ids`` (P, C)); and a copy of
+    ``track_id`` (M,). Returns lf, lx, lv, last_obs, ids, track_id."""
+    M, C = members.shape
+    lf, lx, lv = tracklet_ends(xyz, valid, start, max_speed)
+    if len(track2d):
+        last_obs = last_observed(members, observed, seg_start)
+        ids = np.empty((M, C), np.int64)
+        for m in range(M):
+            for c in range(C):
+                ids[m, c] = track2d[max(members[m, c], 0)]
+    else:
+        last_obs = np.full((M, C), -(1 << 40), np.int64)
+        ids = np.zeros((M, C), np.int64)
+    ids = keep_views(members, ids, track_id, prev_track_id, prev_ids)
+    return lf, lx, lv, last_obs, ids, track_id.copy()
+
+
 def warm_up() -> None:
     """Compile (or load) the kernels on a tiny input of the tracker's argument types."""
     xyz = np.zeros((1, 4, 3))
@@ -288,6 +311,8 @@ def warm_up() -> None:
     P = np.zeros((1, 3, 4))
     P[0, 0, 0] = P[0, 1, 1] = P[0, 2, 2] = P[0, 2, 3] = 1.0
     new_tracks(i1, i1, 0, 4, 2, i1)
+    remember(xyz, valid, 0, 0.5, np.zeros((1, 2), np.int64), np.ones((1, 4), bool), 0, i1, i1, i1,
+             np.zeros((1, 2), np.int64))
     keep_views(np.full((1, 2), -1, np.int64), np.zeros((1, 2), np.int64), i1, i1, np.zeros((1, 2), np.int64))
     old_entries(2, np.zeros((1, 2), np.int64), np.zeros((1, 2), np.int64), i1, i1, np.zeros((1, 3)), np.zeros((1, 3)))
     first_costs(2, np.zeros((1, 2), np.int64), np.zeros((1, 2), np.int64), i1, i1, np.zeros((1, 3)), np.zeros((1, 3)),
