@@ -218,3 +218,42 @@ def test_ghost_confirmation_cases_are_not_trivial():
         floor.drop_floor_ghosts(tri, segs, rig.arrays, PLANES, params, scene, counts, (prev_2d, prev_owner))
         confirmed += counts["floor_ghosts_confirmed"]
     assert confirmed > 3
+
+
+@pytest.mark.parametrize("seed", range(25))
+def test_outliers_then_ghosts_in_one_call_match_numpy(seed):
+    _outliers_then_ghosts(seed)
+
+
+def _outliers_then_ghosts(seed):
+    """The tracker's call: Eq. 4 by place first (counted), then the ghost test with the owners'
+    confirmation on what is left, against the numpy outlier test and ghost test in that order."""
+    from reference.reconstruct import outliers_by_place_numpy
+
+    segs, rig, tri, params, scene = _ghost_case(seed)
+    rng = np.random.default_rng(500 + seed)
+    prev_2d = segs.track2d[rng.random(len(segs)) < 0.7].astype(np.int64)
+    prev_owner = rng.integers(0, 2, len(prev_2d)).astype(np.int64)
+    by_2d = dict(zip(prev_2d.tolist(), prev_owner.tolist()))
+    owner = np.array([by_2d.get(t, -1) for t in segs.track2d.tolist()], np.int64)
+    tspace, speed = np.array([-3.0, -3.5, -1.0, 3.5, 3.0, 5.0]), float(rng.choice([2.0, 8.0]))
+    keys = ("floor_ghosts", "floor_ghosts_confirmed", "tracklets_outliers")
+    counts, counts_r = dict.fromkeys(keys, 0), dict.fromkeys(keys, 0)
+    kept, out = floor.drop_floor_ghosts(tri, segs, rig.arrays, PLANES, params, scene, counts, (prev_2d, prev_owner),
+                                        (tspace, speed))
+    bad = outliers_by_place_numpy(tri.xyz, tri.valid, tspace, speed)
+    counts_r["tracklets_outliers"] += int(bad.sum())
+    kept_r, out_r = ref.drop_floor_ghosts(tri.subset(~bad), segs, rig.arrays, PLANES, params, scene, counts_r, owner)
+    assert counts == counts_r and out.tolist() == out_r.tolist()
+    _same_tracklets(kept, kept_r)
+    return counts, len(kept)
+
+
+def test_outliers_then_ghosts_cases_are_not_trivial():
+    total = {"tracklets_outliers": 0, "floor_ghosts": 0, "kept": 0}
+    for seed in range(25):
+        counts, n_kept = _outliers_then_ghosts(seed)
+        total["tracklets_outliers"] += counts["tracklets_outliers"]
+        total["floor_ghosts"] += counts["floor_ghosts"]
+        total["kept"] += n_kept
+    assert total["tracklets_outliers"] > 10 and total["floor_ghosts"] > 3 and total["kept"] > 10

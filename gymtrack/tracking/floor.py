@@ -169,7 +169,8 @@ AIR = 0.25  #: metres: a body whose bottom is higher than this has left the floo
 
 
 def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig: RigArrays, planes, params, scene,
-                      counts: dict, owner=None) -> tuple[WindowTracklets3D | None, np.ndarray]:
+                      counts: dict, owner=None, outliers: tuple | None = None
+                      ) -> tuple[WindowTracklets3D | None, np.ndarray]:
     """``cascade+``: the two-view triangulated clusters the floor says are ghosts (a wrong pair
     of two people's segments triangulates to a short body floating above the floor).
 
@@ -186,7 +187,9 @@ def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig:
     window keeps surviving while both its 2D tracks last (+4 to +7 % false positives on the
     suite, -0.005 MOTA). ``owner`` may also be the tracker's ``(prev_2d, prev_owner)``: the 2D
     tracks of the previous window's tracklets and their 3D tracks (:class:`~.linking.WindowLinker`).
-    Returns the clusters kept
+    ``outliers``: (tracking space (6,), max_speed): Eq. 4 by place first
+    (:func:`.reconstruct.outliers_by_place`, counted in ``tracklets_outliers``; the tracker's
+    order), in the same call. Returns the clusters kept
     and the ghosts' segments (indices into ``segs``, for the floor stage only). One kernel call
     (:func:`._kernels.floor.ghost_split`: :func:`._kernels.floor.ghost_test` and the confirmation).
     """
@@ -198,19 +201,24 @@ def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig:
         prev_2d, prev_owner = owner
     else:  # (K,) per segment, or a callable giving it
         prev_2d, prev_owner = segs.track2d, np.asarray(owner() if callable(owner) else owner, np.int64)
-    ghost, pair, stats = kernels.ghost_split(
+    tspace, max_speed = (_NO_SPACE, 0.0) if outliers is None else outliers
+    drop, pair, stats = kernels.ghost_split(
         tri.members, tri.valid, tri.bottom_z, tri.xyz, segs.box, segs.valid, segs.observed, segs.camera, segs.track2d,
         prev_2d, prev_owner, owner is not None, rig, PlaneArrays.from_planes(planes), _space(scene.performance_space),
-        AIR, MIN_COS, _rules(params.cluster_plane))
-    if not stats[0]:  # the usual window: no ghost
-        return tri, _NO_INDEX
-    _, confirmed, n = stats.tolist()
-    if owner is not None:
+        AIR, MIN_COS, _rules(params.cluster_plane), tspace, float(max_speed), outliers is not None)
+    n_outliers, any_ghost, confirmed, n = stats.tolist()
+    if n_outliers:
+        counts["tracklets_outliers"] += n_outliers
+    if any_ghost and owner is not None:
         counts["floor_ghosts_confirmed"] += confirmed
-    if not n:
+    if n:
+        counts["floor_ghosts"] += n
+    if not n_outliers and not n:  # the usual window: nothing dropped
         return tri, _NO_INDEX
-    counts["floor_ghosts"] += n
-    return tri.subset(~ghost), pair
+    return tri.subset(~drop), pair
+
+
+_NO_SPACE = np.zeros(6)
 
 
 def solo_inside(pl: WindowTracklets3D, space: np.ndarray, counts: dict) -> WindowTracklets3D:

@@ -327,13 +327,14 @@ class Tracker:
             self.counts["segments_dropped_single"] += int(np.count_nonzero(~multi))
         tri = triangulate_clusters(segs, members[multi], self.P)
         tri = tri if fused is None else WindowTracklets3D.concat([tri, fused])
-        bad = self._outliers(tri.xyz, tri.valid, self.space, p.max_speed)
-        if bad.any():
-            self.counts["tracklets_outliers"] += int(bad.sum())
-            tri = tri.subset(~bad)
-        if self.plus:  # the floor's ghost test; a ghost's segments may go to the floor only
+        if self.plus:  # Eq. 4 by place, then the floor's ghost test; a ghost's segments may go to the floor only
             tri, self._floor_only = drop_floor_ghosts(tri, segs, self.rig.arrays, self.plane_arrays, p, self.scene, self.counts,
-                                                      (self.linker.prev_2d, self.linker.prev_owner))
+                                                      (self.linker.prev_2d, self.linker.prev_owner), (self.space, p.max_speed))
+        else:
+            bad = self._outliers(tri.xyz, tri.valid, self.space, p.max_speed)
+            if bad.any():
+                self.counts["tracklets_outliers"] += int(bad.sum())
+                tri = tri.subset(~bad)
         if self.refiner is not None:  # the plane's points: what passed the tests, and the opposite pairs
             self.refiner.observe(segs, tri, members[fallback & ((members >= 0).sum(axis=1) >= 2)])
         self.counts["clusters_triangulated"] += len(tri)

@@ -359,22 +359,28 @@ def ghost_test(members, valid3, bottom_z, xyz, box, valid, observed, camera, rig
 
 @njit(cache=True, error_model="numpy")
 def ghost_split(members, valid3, bottom_z, xyz, box, valid, observed, camera, track2d, prev_2d, prev_owner, confirm,
-                rig, planes, space, air, min_cos, rules):
+                rig, planes, space, air, min_cos, rules, tspace, max_speed, by_place):
     """:func:`ghost_test` and what :func:`gymtrack.tracking.floor.drop_floor_ghosts` does with it, in
     one call. track2d (K,): the segments' 2D tracks; ``confirm``: a ghost whose 2D tracks were all
     members of one 3D track of the previous window (``prev_owner`` (n,) of the 2D tracks
-    ``prev_2d`` (n,); -1 / none found: no track) is kept. Returns ghost (M,) bool, the ghosts'
-    segments (sorted) and (3,) int64: any ghost before the confirmation (0 / 1), ghosts
-    confirmed, ghosts."""
-    ghost = ghost_test(members, valid3, bottom_z, xyz, box, valid, observed, camera, rig, planes, space, air, min_cos,
-                       rules)
+    ``prev_2d`` (n,); -1 / none found: no track) is kept; ``by_place``: first Eq. 4 by place
+    (:func:`.reconstruct.outliers_by_place` in ``tspace``; the outliers are not tested).
+    Returns drop (M,) bool (outliers and ghosts), the ghosts' segments (sorted) and (4,) int64:
+    outliers, any ghost before the confirmation (0 / 1), ghosts confirmed, ghosts."""
     M, C = members.shape
-    stats = np.zeros(3, np.int64)
+    stats = np.zeros(4, np.int64)
+    bad = np.zeros(M, np.bool_)
+    if by_place and M > 0:
+        bad = outliers_by_place(xyz, valid3, tspace, max_speed)
+    ghost = ghost_test(members, valid3, bottom_z, xyz, box, valid, observed, camera, rig, planes, space, air, min_cos,
+                       rules)  # (row by row: an outlier's answer is not used)
     for m in range(M):
-        stats[2] += ghost[m]
-    if stats[2] == 0:
-        return ghost, np.zeros(0, np.int64), stats
-    stats[0] = 1
+        stats[0] += bad[m]
+        ghost[m] = ghost[m] and not bad[m]
+        stats[3] += ghost[m]
+    if stats[3] == 0:
+        return bad, np.zeros(0, np.int64), stats
+    stats[1] = 1
     if confirm:
         known = len(prev_2d) > 0 and len(prev_owner) == len(prev_2d)
         for m in range(M):
@@ -396,9 +402,9 @@ def ghost_split(members, valid3, bottom_z, xyz, box, valid, observed, camera, tr
                 first = o
             if same and first >= 0:
                 ghost[m] = False
-                stats[1] += 1
-        stats[2] -= stats[1]
-    pair = np.empty(2 * stats[2], np.int64)
+                stats[2] += 1
+        stats[3] -= stats[2]
+    pair = np.empty(2 * stats[3], np.int64)
     n = 0
     for m in range(M):
         if ghost[m]:
@@ -406,7 +412,7 @@ def ghost_split(members, valid3, bottom_z, xyz, box, valid, observed, camera, tr
                 if members[m, c] >= 0:
                     pair[n] = members[m, c]
                     n += 1
-    return ghost, np.sort(pair[:n]), stats
+    return bad | ghost, np.sort(pair[:n]), stats
 
 
 def warm_up() -> None:
@@ -431,4 +437,4 @@ def warm_up() -> None:
     i2 = np.arange(2, dtype=np.int64)
     ghost_split(np.array([[0, 1]], np.int64), np.ones((M, W), bool), np.ones((M, W)), np.ones((M, W, 3)), s.box,
                 valid, s.observed, s.camera, i2, i2, i2, True, rig, PlaneArrays.from_planes(s.planes), space, 0.25, 1e-3,
-                rules)
+                rules, space, 0.5, True)
