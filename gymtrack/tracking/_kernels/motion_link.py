@@ -201,7 +201,7 @@ def _new_tracks_sorted(frame, track2d, a, f, b, seen):
 
 @njit(cache=True, error_model="numpy")
 def new_near(C, ids, last_obs, track_id, lf, lx, lv, frame, track2d, camera, ubox, start, stop, fresh_from, seen, P, n,
-             max_gap, gate, ends_apply):
+             max_gap, gate, ends_apply):  # (track_id: unused, the ends as MotionLinker keeps them)
     """:class:`~gymtrack.tracking.motion_link.MotionLinker`'s step up to its first decision, in
     one call: the window's new 2D tracks (:func:`new_tracks`) and whether any lies within the
     gate (``D <= gate``) of the first round's costs (:func:`first_costs`, computed only when
@@ -209,12 +209,77 @@ def new_near(C, ids, last_obs, track_id, lf, lx, lv, frame, track2d, camera, ubo
     new = new_tracks(frame, track2d, start, stop, fresh_from, seen)
     near = False
     if len(new) and ends_apply:
-        D = first_costs(C, ids, last_obs, track_id, lf, lx, lv, frame, track2d, camera, ubox, new, P, n, max_gap)
-        for v in D.ravel():
-            if v <= gate:  # (NaN compares False)
-                near = True
-                break
+        near = _first_near(C, ids, last_obs, lf, lx, lv, frame, track2d, camera, ubox, new, P, n, max_gap, gate)
     return new, near
+
+
+@njit(cache=True, error_model="numpy")
+def _first_near(C, ids, last_obs, lf, lx, lv, frame, track2d, camera, ubox, new, P, n, max_gap, gate):
+    """Whether :func:`first_costs` has a cost within ``gate``, without building its (L, T) matrix:
+    only the old entries (:func:`old_entries`' choice: the first (tracklet, view) of each 2D
+    track) of a view a new track is in are costed, with :func:`link_costs`' arithmetic."""
+    N, T = len(frame), len(new)
+    fr = np.zeros((T, n), np.int64)
+    bx = np.full((T, n, 4), _NAN)
+    cnt = np.zeros(T, np.int64)
+    cam_n = np.zeros(T, np.int64)
+    for i in range(N):  # the first n boxes of each new track (rows are in frame order)
+        j = np.searchsorted(new, track2d[i])
+        if j < T and new[j] == track2d[i]:
+            cam_n[j] = camera[i]
+            k = cnt[j]
+            if k < n:
+                fr[j, k] = frame[i]
+                for q in range(4):
+                    bx[j, k, q] = ubox[i, q]
+                cnt[j] = k + 1
+    flat, lo = ids.ravel(), last_obs.ravel()
+    for e in range(flat.size):
+        c, m, t = e % C, e // C, flat[e]
+        wanted = False
+        for j in range(T):
+            if cam_n[j] == c and cnt[j] > 0:
+                wanted = True
+        if not wanted:
+            continue
+        last = lo[e]
+        if t >= 0:
+            first = True  # one entry per 2D track: its first (tracklet, view)
+            for e2 in range(e):
+                if flat[e2] == t:
+                    first = False
+                    break
+            if not first:
+                continue
+            for i in range(N):  # the old track's last box: in the rows still held
+                if track2d[i] == t and frame[i] > last:
+                    last = frame[i]
+        for j in range(T):
+            if cam_n[j] != c or cnt[j] == 0:
+                continue
+            gap = fr[j, 0] - last
+            if t >= 0 and (gap < 1 or gap > max_gap + 1):
+                continue
+            s = 0.0
+            bad = False
+            for k in range(cnt[j]):  # (link_costs' arithmetic, in its order)
+                dt = float(fr[j, k] - lf[m])
+                X0 = lx[m, 0] + lv[m, 0] * dt
+                X1 = lx[m, 1] + lv[m, 1] * dt
+                X2 = lx[m, 2] + lv[m, 2] * dt
+                h0 = (P[c, 0, 0] * X0 + P[c, 0, 2] * X2) + P[c, 0, 1] * X1 + P[c, 0, 3]
+                h1 = (P[c, 1, 0] * X0 + P[c, 1, 2] * X2) + P[c, 1, 1] * X1 + P[c, 1, 3]
+                h2 = (P[c, 2, 0] * X0 + P[c, 2, 2] * X2) + P[c, 2, 1] * X1 + P[c, 2, 3]
+                o0 = (h0 / h2 - bx[j, k, 0]) / bx[j, k, 2]
+                o1 = (h1 / h2 - bx[j, k, 1]) / bx[j, k, 3]
+                d = np.sqrt(o0 * o0 + o1 * o1)
+                if not h2 > 0 or np.isnan(d):
+                    bad = True
+                    break
+                s += d
+            if not bad and s / cnt[j] <= gate:
+                return True
+    return False
 
 
 @njit(cache=True, error_model="numpy")
