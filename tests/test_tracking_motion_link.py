@@ -223,17 +223,3 @@ def test_keep_views_kernel_equals_numpy_reference():
         want = keep_views_numpy(members, ids, track_id, prev_track_id, prev_ids)
         got = kernels.keep_views(members, ids.copy(), track_id, prev_track_id, prev_ids)
         assert np.array_equal(got, want)
-
-
-def test_first_costs_equal_the_reference_round_from_the_ends():
-    rng = np.random.default_rng(10)
-    for _ in range(100):
-        M, C = int(rng.integers(1, 8)), 4
-        ids = np.where(rng.random((M, C)) < 0.7, rng.integers(0, 6, (M, C)), -1)
-        ends = (C, ids, rng.integers(95, 108, (M, C)), rng.permutation(50)[:M], rng.integers(98, 106, M),
-                rng.uniform(-3, 3, (M, 3)), rng.normal(0, 0.2, (M, 3)))
-        frame, track2d, camera, ubox, new, *_, P = _random_round(rng)
-        got = kernels.first_costs(*ends, frame, track2d, camera, ubox, new, P, 3, 5)
-        cam_o, t_o, last_o, _, lf, lx, lv = old_entries_numpy(*ends)
-        want = link_costs_numpy(frame, track2d, camera, ubox, new, cam_o, t_o, last_o, lf, lx, lv, P, 3, 5)
-        assert np.array_equal(got, want, equal_nan=True)

@@ -6,8 +6,7 @@ projected constant-velocity prediction and the view / gap gates -- in one call i
 numpy calls (the arrays are a window's: ~15 old entries, ~3 new tracks). :func:`remember`:
 what :meth:`~gymtrack.tracking.motion_link.MotionLinker.remember` keeps per (tracklet, view);
 :func:`new_tracks`: a window's new 2D tracks (:func:`new_near`: and whether the first round links any); :func:`old_entries`: the previous window's, one
-entry per 2D track; :func:`keep_views`: the 2D track a view without a member keeps; :func:`first_costs`: the first
-round in one call.
+entry per 2D track; :func:`keep_views`: the 2D track a view without a member keeps.
 The numpy code they replace is ``tests/reference/motion_link.py``; the arithmetic is written in
 the reference's order (numpy's einsum order, no fused multiply-add), so the results are the same to the last bit and
 the links never change.
@@ -204,8 +203,9 @@ def new_near(C, ids, last_obs, track_id, lf, lx, lv, frame, track2d, camera, ubo
              max_gap, gate, ends_apply):  # (track_id: unused, the ends as MotionLinker keeps them)
     """:class:`~gymtrack.tracking.motion_link.MotionLinker`'s step up to its first decision, in
     one call: the window's new 2D tracks (:func:`new_tracks`) and whether any lies within the
-    gate (``D <= gate``) of the first round's costs (:func:`first_costs`, computed only when
-    there are new tracks and ``ends_apply``: the ends are the previous window's)."""
+    gate (``D <= gate``) of the first round's costs (:func:`link_costs` of :func:`old_entries`
+    of the ends; tested only when there are new tracks and ``ends_apply``: the ends are the
+    previous window's)."""
     new = new_tracks(frame, track2d, start, stop, fresh_from, seen)
     near = False
     if len(new) and ends_apply:
@@ -215,7 +215,8 @@ def new_near(C, ids, last_obs, track_id, lf, lx, lv, frame, track2d, camera, ubo
 
 @njit(cache=True, error_model="numpy")
 def _first_near(C, ids, last_obs, lf, lx, lv, frame, track2d, camera, ubox, new, P, n, max_gap, gate):
-    """Whether :func:`first_costs` has a cost within ``gate``, without building its (L, T) matrix:
+    """Whether the first round (:func:`link_costs` of :func:`old_entries` of the ends) has a cost
+    within ``gate``, without building its (L, T) matrix:
     only the old entries (:func:`old_entries`' choice: the first (tracklet, view) of each 2D
     track) of a view a new track is in are costed, with :func:`link_costs`' arithmetic."""
     N, T = len(frame), len(new)
@@ -336,14 +337,6 @@ def keep_views(members, ids, track_id, prev_track_id, prev_ids):
 
 
 @njit(cache=True, error_model="numpy")
-def first_costs(C, ids, last_obs, track_id, lf, lx, lv, frame, track2d, camera, ubox, new, P, n, max_gap):
-    """:func:`link_costs` of the first round straight from the previous window's ends
-    (:func:`old_entries`' arguments): one call where, as usually, nothing links."""
-    cam_o, t_o, last_o, _, f, x, v = old_entries(C, ids, last_obs, track_id, lf, lx, lv)
-    return link_costs(frame, track2d, camera, ubox, new, cam_o, t_o, last_o, f, x, v, P, n, max_gap)
-
-
-@njit(cache=True, error_model="numpy")
 def remember(xyz, valid, start, max_speed, members, observed, seg_start, track2d, track_id, prev_track_id, prev_ids):
     """What :meth:`~gymtrack.tracking.motion_link.MotionLinker.remember` keeps of a linked window,
     in one call: :func:`tracklet_ends` of xyz (M, W, 3), valid (M, W); per (tracklet, view) of
@@ -380,8 +373,6 @@ def warm_up() -> None:
              np.zeros((1, 2), np.int64))
     keep_views(np.full((1, 2), -1, np.int64), np.zeros((1, 2), np.int64), i1, i1, np.zeros((1, 2), np.int64))
     old_entries(2, np.zeros((1, 2), np.int64), np.zeros((1, 2), np.int64), i1, i1, np.zeros((1, 3)), np.zeros((1, 3)))
-    first_costs(2, np.zeros((1, 2), np.int64), np.zeros((1, 2), np.int64), i1, i1, np.zeros((1, 3)), np.zeros((1, 3)),
-                i1, i1, i1, np.ones((1, 4)), i1, P, 3, 5)
     new_near(2, np.zeros((1, 2), np.int64), np.zeros((1, 2), np.int64), i1, i1, np.zeros((1, 3)), np.zeros((1, 3)),
              i1, i1, i1, np.ones((1, 4)), 0, 4, 2, i1, P, 3, 5, 1.0, True)
     link_costs(i1, i1, i1, np.ones((1, 4)), i1, i1, i1 - 1, i1, i1, np.zeros((1, 3)), np.zeros((1, 3)), P, 3, 5)
