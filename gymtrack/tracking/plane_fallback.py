@@ -31,6 +31,7 @@ and their numpy references are in ``tests/reference/plane.py``.
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Sequence
 
 import numpy as np
@@ -91,6 +92,11 @@ def plane_stage(
 _NO_D2 = np.zeros((0, 0))
 
 
+@lru_cache(maxsize=8)
+def _rules(threshold: float) -> PlaneRules:  # (one per threshold: built once, not per window)
+    return PlaneRules(MIN_COS, threshold, PLANE, INTERPOLATED)
+
+
 def plane_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | None, rig: RigArrays,
                 planes: PlaneArrays, params, oracle: bool, prev_2d: np.ndarray, prev_seen: np.ndarray,
                 tracking_space: np.ndarray, performance_space: np.ndarray, counts: dict) -> WindowTracklets3D | None:
@@ -109,7 +115,7 @@ def plane_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | No
     xyz, top, bottom, valid, source, n_views, members, stats = plane_split_kernel(
         segs.box, segs.observed, segs.camera, segs.track2d, to_plane, _NO_D2 if D2 is None else D2,
         float(params.cluster_2d), segs.track2d // C if oracle else NO_GROUP, prev_2d, prev_seen, rig, planes,
-        PlaneRules(MIN_COS, float(params.cluster_plane), PLANE, INTERPOLATED), tracking_space, float(params.max_speed),
+        _rules(float(params.cluster_plane)), tracking_space, float(params.max_speed),
         performance_space)
     fused, n_outliers, n_outside = stats.tolist()
     counts["segments_to_plane"] += len(to_plane)
