@@ -133,3 +133,127 @@ def test_ghost_test_random_clusters_are_not_trivial():
         ghosts += len(tri) - len(kept)
         kept_two += int(((kept.members >= 0).sum(1) == 2).sum())
     assert ghosts > 5 and kept_two > 5
+
+
+@pytest.mark.parametrize("seed", range(25))
+def test_floor_split_matches_numpy(seed):
+    """The tracker's hook (one kernel call): a random part of the window to the plane, a few
+    ghosts' segments, Eq. 2 separations or an oracle, and Eq. 4 by place on a tracking space
+    that cuts some floor tracklets off."""
+    rng = np.random.default_rng(200 + seed)
+    rig = ring_rig(sorted(rng.choice(360, size=rng.integers(2, 5), replace=False)), radius=10.0, height=3.0)
+    segs = _window(rng, rig, rng.integers(0, 7))
+    K = len(segs)
+    pick = rng.permutation(K)
+    n_plane = int(rng.integers(0, K + 1))
+    to_plane = np.sort(pick[:n_plane]).astype(np.int64)
+    floor_only = pick[n_plane:n_plane + int(rng.integers(0, 3))].astype(np.int64)
+    D2 = rng.uniform(0, 40, (K, K))
+    D2 = (D2 + D2.T) / 2  # (Eq. 2 is symmetric)
+    params = SimpleNamespace(cluster_2d=30.0, cluster_plane=rng.choice([0.5, 1.5]), max_speed=rng.choice([0.1, 1.0]))
+    scene = SimpleNamespace(performance_space=tuple(SPACE), tracking_space=(-4.0, -4.5, 0.0, 5.0, 4.0, 4.5))
+    for d2, oracle in ((None, False), (D2, False), (None, True)):
+        counts, counts_r = {}, {}
+        for c in (counts, counts_r):
+            c.update(dict.fromkeys(("segments_to_floor", "tracklets_outliers", "floor_tracklets",
+                                    "segments_dropped_ghost"), 0))
+        fl, rest = floor.floor_split(segs, to_plane, d2, rig.arrays, params, scene, oracle, counts, floor_only)
+        fl_r, rest_r = ref.floor_split(segs, to_plane, d2, rig.arrays, params, scene, oracle, counts_r, floor_only)
+        assert counts == counts_r and rest.tolist() == rest_r.tolist()
+        assert (fl is None) == (fl_r is None)
+        if fl is not None:
+            _same_tracklets(fl, fl_r)
+
+
+def test_floor_split_random_cases_are_not_trivial():
+    """Over the random cases above the floor takes tracklets, Eq. 4 drops some and ghosts' segments go."""
+    counts = dict.fromkeys(("segments_to_floor", "tracklets_outliers", "floor_tracklets", "segments_dropped_ghost"), 0)
+    for seed in range(25):
+        rng = np.random.default_rng(200 + seed)
+        rig = ring_rig(sorted(rng.choice(360, size=rng.integers(2, 5), replace=False)), radius=10.0, height=3.0)
+        segs = _window(rng, rig, rng.integers(0, 7))
+        K = len(segs)
+        pick = rng.permutation(K)
+        n_plane = int(rng.integers(0, K + 1))
+        params = SimpleNamespace(cluster_2d=30.0, cluster_plane=rng.choice([0.5, 1.5]), max_speed=rng.choice([0.1, 1.0]))
+        scene = SimpleNamespace(performance_space=tuple(SPACE), tracking_space=(-4.0, -4.5, 0.0, 5.0, 4.0, 4.5))
+        floor.floor_split(segs, np.sort(pick[:n_plane]).astype(np.int64), None, rig.arrays, params, scene, False, counts,
+                          pick[n_plane:n_plane + int(rng.integers(0, 3))].astype(np.int64))
+    assert counts["floor_tracklets"] > 5 and counts["tracklets_outliers"] > 2 and counts["segments_dropped_ghost"] > 0
+
+
+@pytest.mark.parametrize("seed", range(25))
+def test_ghost_confirmation_by_the_previous_windows_owners_matches_numpy(seed):
+    """The tracker's form (prev_2d, prev_owner): the 2D tracks of the previous window's
+    tracklets (some of this window's, some gone) and their 3D tracks, against the numpy test
+    with the per-segment owners they give."""
+    segs, rig, tri, params, scene = _ghost_case(seed)
+    rng = np.random.default_rng(400 + seed)
+    K = len(segs)
+    prev_2d = rng.permutation(np.r_[segs.track2d[rng.random(K) < 0.7], 1000 + np.arange(3)]).astype(np.int64)
+    prev_owner = rng.integers(0, 2, len(prev_2d)).astype(np.int64)  # few tracks: pairs often share one
+    by_2d = dict(zip(prev_2d.tolist(), prev_owner.tolist()))
+    owner = np.array([by_2d.get(t, -1) for t in segs.track2d.tolist()], np.int64)
+    for pl in ([], PLANES):
+        counts, counts_r = {"floor_ghosts": 0, "floor_ghosts_confirmed": 0}, {"floor_ghosts": 0, "floor_ghosts_confirmed": 0}
+        kept, out = floor.drop_floor_ghosts(tri, segs, rig.arrays, pl, params, scene, counts, (prev_2d, prev_owner))
+        kept_r, out_r = ref.drop_floor_ghosts(tri, segs, rig.arrays, pl, params, scene, counts_r, owner)
+        assert counts == counts_r and out.tolist() == out_r.tolist()
+        _same_tracklets(kept, kept_r)
+        for o in (owner, lambda: owner):  # the per-segment forms
+            counts_o = {"floor_ghosts": 0, "floor_ghosts_confirmed": 0}
+            kept_o, out_o = floor.drop_floor_ghosts(tri, segs, rig.arrays, pl, params, scene, counts_o, o)
+            assert counts_o == counts_r and out_o.tolist() == out_r.tolist()
+
+
+def test_ghost_confirmation_cases_are_not_trivial():
+    confirmed = 0
+    for seed in range(25):
+        segs, rig, tri, params, scene = _ghost_case(seed)
+        rng = np.random.default_rng(400 + seed)
+        K = len(segs)
+        prev_2d = rng.permutation(np.r_[segs.track2d[rng.random(K) < 0.7], 1000 + np.arange(3)]).astype(np.int64)
+        prev_owner = rng.integers(0, 2, len(prev_2d)).astype(np.int64)
+        counts = {"floor_ghosts": 0, "floor_ghosts_confirmed": 0}
+        floor.drop_floor_ghosts(tri, segs, rig.arrays, PLANES, params, scene, counts, (prev_2d, prev_owner))
+        confirmed += counts["floor_ghosts_confirmed"]
+    assert confirmed > 3
+
+
+@pytest.mark.parametrize("seed", range(25))
+def test_outliers_then_ghosts_in_one_call_match_numpy(seed):
+    _outliers_then_ghosts(seed)
+
+
+def _outliers_then_ghosts(seed):
+    """The tracker's call: Eq. 4 by place first (counted), then the ghost test with the owners'
+    confirmation on what is left, against the numpy outlier test and ghost test in that order."""
+    from reference.reconstruct import outliers_by_place_numpy
+
+    segs, rig, tri, params, scene = _ghost_case(seed)
+    rng = np.random.default_rng(500 + seed)
+    prev_2d = segs.track2d[rng.random(len(segs)) < 0.7].astype(np.int64)
+    prev_owner = rng.integers(0, 2, len(prev_2d)).astype(np.int64)
+    by_2d = dict(zip(prev_2d.tolist(), prev_owner.tolist()))
+    owner = np.array([by_2d.get(t, -1) for t in segs.track2d.tolist()], np.int64)
+    tspace, speed = np.array([-3.0, -3.5, -1.0, 3.5, 3.0, 5.0]), float(rng.choice([2.0, 8.0]))
+    keys = ("floor_ghosts", "floor_ghosts_confirmed", "tracklets_outliers")
+    counts, counts_r = dict.fromkeys(keys, 0), dict.fromkeys(keys, 0)
+    kept, out = floor.drop_floor_ghosts(tri, segs, rig.arrays, PLANES, params, scene, counts, (prev_2d, prev_owner),
+                                        (tspace, speed))
+    bad = outliers_by_place_numpy(tri.xyz, tri.valid, tspace, speed)
+    counts_r["tracklets_outliers"] += int(bad.sum())
+    kept_r, out_r = ref.drop_floor_ghosts(tri.subset(~bad), segs, rig.arrays, PLANES, params, scene, counts_r, owner)
+    assert counts == counts_r and out.tolist() == out_r.tolist()
+    _same_tracklets(kept, kept_r)
+    return counts, len(kept)
+
+
+def test_outliers_then_ghosts_cases_are_not_trivial():
+    total = {"tracklets_outliers": 0, "floor_ghosts": 0, "kept": 0}
+    for seed in range(25):
+        counts, n_kept = _outliers_then_ghosts(seed)
+        total["tracklets_outliers"] += counts["tracklets_outliers"]
+        total["floor_ghosts"] += counts["floor_ghosts"]
+        total["kept"] += n_kept
+    assert total["tracklets_outliers"] > 10 and total["floor_ghosts"] > 3 and total["kept"] > 10

@@ -220,3 +220,42 @@ def test_candidate_distances_on_the_kernel_candidates():
     got = plane_candidates(segs, RIG, PLANES, ("centre",))[0]
     same(candidate_distances(got, segs.observed, segs.camera),
          candidate_distances_numpy(X[0], segs.observed, segs.camera, status[0] == RayPlaneStatus.OK))
+
+
+def test_plane_split_matches_the_cascades_path_around_the_stage():
+    """cascade+'s one call (plane_fallback.plane_split) against the numpy stage with the steps
+    the tracker runs around it: random segments to the plane, Eq. 2 separations, oracle ids,
+    one-view continuations, and spaces that drop some tracklets (Eq. 4, one view outside)."""
+    from types import SimpleNamespace
+
+    from gymtrack.geometry.arrays import PlaneArrays
+    from gymtrack.tracking.plane_fallback import plane_split
+    from reference.plane import plane_split_numpy
+
+    keys = ("segments_to_plane", "tracklets_outliers", "plane_single_view_outside", "plane_tracklets")
+    total = dict.fromkeys(keys, 0)
+    for seed in range(24):
+        rng = np.random.default_rng(300 + seed)
+        segs = scenario(rng, n_people=int(rng.integers(1, 5)), n_false=int(rng.integers(0, 3)), nan_boxes=seed % 2)
+        K = len(segs)
+        to_plane = np.sort(rng.choice(K, int(rng.integers(1, K + 1)), replace=False)).astype(np.int64)
+        planes = [PLANES[i] for i in rng.permutation(len(PLANES))[: 1 + seed % 3]]
+        D2 = rng.uniform(0, 40, (K, K))
+        D2 = (D2 + D2.T) / 2
+        prev_seen = rng.choice(segs.track2d, int(rng.integers(0, K + 1)), replace=False)
+        prev_2d = prev_seen[: len(prev_seen) // 2]
+        params = SimpleNamespace(cluster_2d=30.0, cluster_plane=THRESHOLD, max_speed=float(rng.choice([0.3, 1.0])))
+        tspace = np.array([-1.0, -1.9, 0.0, 1.0, 1.9, 3.0])
+        pspace = np.array([-0.4, -1.0, 0.0, 0.4, 1.0, 3.0])
+        for d2, oracle in ((None, False), (D2, False), (None, True)):
+            counts, counts_r = dict.fromkeys(keys, 0), dict.fromkeys(keys, 0)
+            got = plane_split(segs, to_plane, d2, RIG.arrays, PlaneArrays.from_planes(planes), params, oracle, prev_2d,
+                              prev_seen, tspace, pspace, counts)
+            want = plane_split_numpy(segs, to_plane, d2, RIG, planes, params, oracle, prev_2d, prev_seen, tspace, pspace,
+                                     counts_r)
+            assert counts == counts_r and (got is None) == (want is None)
+            if got is not None:
+                same_tracklets(got, want)
+            for k in keys:
+                total[k] += counts[k]
+    assert total["plane_tracklets"] > 10 and total["tracklets_outliers"] > 3 and total["plane_single_view_outside"] > 3

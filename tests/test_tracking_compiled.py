@@ -260,3 +260,25 @@ def test_link_by_2d_kernel(seed):
     assert link_by_2d(rows, members, track2d, prev_2d, prev_owner, a) == link_by_2d_numpy(
         rows, members, track2d, prev_2d, prev_owner, b)
     assert np.array_equal(a, b)
+
+
+def test_opposite_clusters_and_fallback_segments_match_numpy():
+    """The cascade's two-view opposite clusters (any symmetric or one-sided pair table) and the
+    segments of the fallback clusters, against the numpy table lookup and take."""
+    from gymtrack.tracking.reconstruct import fallback_segments, opposite_clusters
+    from reference.reconstruct import fallback_segments_numpy, opposite_clusters_numpy
+
+    rng = np.random.default_rng(12)
+    hits = 0
+    for _ in range(200):
+        M, C = int(rng.integers(0, 9)), int(rng.integers(2, 7))
+        members = np.where(rng.random((M, C)) < 0.4, rng.integers(0, 40, (M, C)), -1)
+        opposite = rng.random((C, C)) < 0.3
+        got = opposite_clusters(members, opposite)
+        assert got.dtype == bool and np.array_equal(got, opposite_clusters_numpy(members, opposite))
+        hits += int(got.sum())
+        fallback = got | (rng.random(M) < 0.3)
+        seg = fallback_segments(members, fallback)
+        want = fallback_segments_numpy(members, fallback)
+        assert seg.dtype == want.dtype and np.array_equal(seg, want)
+    assert hits > 20

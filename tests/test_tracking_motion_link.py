@@ -133,6 +133,30 @@ def test_window_ends_kernels_equal_numpy_reference_bitwise():
             assert a.dtype == b.dtype and np.array_equal(a, b)
 
 
+def test_remember_kernel_equals_the_numpy_steps():
+    """MotionLinker.remember's one call: the ends, last observed frames, the views' 2D tracks and
+    what a view without a member keeps (the previous rows' or -1; no segments: zeros, never seen)."""
+    rng = np.random.default_rng(5)
+    for _ in range(100):
+        M, W, C, K, P = 7, 10, 4, int(rng.choice([0, 9])), int(rng.integers(0, 6))
+        valid = rng.random((M, W)) < 0.6
+        valid[np.arange(M), rng.integers(0, W, M)] = True
+        xyz = rng.normal(0, 2, (M, W, 3))
+        members = np.where(rng.random((M, C)) < 0.7, rng.integers(0, max(K, 1), (M, C)), -1) if K else np.full((M, C), -1)
+        observed = rng.random((K, W)) < 0.5
+        track2d = rng.permutation(100)[:K].astype(np.int64)
+        track_id = rng.permutation(12)[:M].astype(np.int64)
+        prev_track_id, prev_ids = rng.integers(0, 12, P), rng.integers(-1, 50, (P, C))
+        lf, lx, lv, last_obs = window_ends_numpy(xyz, valid, 40, 0.25, members, observed if K else np.zeros((1, W), bool),
+                                                 40)
+        ids = track2d[np.maximum(members, 0)] if K else np.zeros((M, C), np.int64)
+        want = (lf, lx, lv, last_obs, keep_views_numpy(members, ids, track_id, prev_track_id, prev_ids), track_id)
+        got = kernels.remember(xyz, valid, 40, 0.25, members, observed, 40, track2d, track_id, prev_track_id, prev_ids)
+        for a, b in zip(got, want):
+            assert a.dtype == b.dtype and np.array_equal(a, b)
+        assert got[-1] is not track_id  # (a copy: kept across windows)
+
+
 def test_new_tracks_kernel_equals_numpy_reference():
     rng = np.random.default_rng(6)
     found = 0
@@ -140,11 +164,39 @@ def test_new_tracks_kernel_equals_numpy_reference():
         frame = np.sort(rng.integers(90, 115, 80))
         track2d = rng.integers(0, 30, 80)
         seen = rng.choice(30, rng.integers(0, 10), replace=False)
-        got = kernels.new_tracks(frame, track2d, 100, 110, 105, seen)
-        want = new_tracks_numpy(frame, track2d, 100, 110, 105, seen)
-        assert got.dtype == want.dtype and np.array_equal(got, want)
-        found += len(got)
-    assert found > 100
+        for spread in (1, 100_003):  # small ids (a table over their range) and spread ones (sorted)
+            got = kernels.new_tracks(frame, track2d * spread, 100, 110, 105, seen * spread)
+            want = new_tracks_numpy(frame, track2d * spread, 100, 110, 105, seen * spread)
+            assert got.dtype == want.dtype and np.array_equal(got, want)
+            found += len(got)
+    assert found > 200
+
+
+def test_new_near_is_new_tracks_and_the_first_round_within_the_gate():
+    """MotionLinker.step's one call: the new tracks, and whether the first round's costs (the
+    reference's) have one within the gate; without ends that apply, never near."""
+    rng = np.random.default_rng(11)
+    near_seen = far_seen = 0
+    for _ in range(200):
+        M, C = int(rng.integers(1, 8)), 4
+        ids = np.where(rng.random((M, C)) < 0.7, rng.integers(0, 6, (M, C)), -1)
+        ends = (C, ids, rng.integers(95, 108, (M, C)), rng.permutation(50)[:M], rng.integers(98, 106, M),
+                rng.uniform(-3, 3, (M, 3)), rng.normal(0, 0.2, (M, 3)))
+        frame, track2d, camera, ubox, *_, P = _random_round(rng)
+        seen = rng.choice(12, rng.integers(0, 6), replace=False)
+        new_r = new_tracks_numpy(frame, track2d, 100, 110, 105, seen)
+        cam_o, t_o, last_o, _, lf, lx, lv = old_entries_numpy(*ends)
+        D = link_costs_numpy(frame, track2d, camera, ubox, new_r, cam_o, t_o, last_o, lf, lx, lv, P, 3, 5)
+        finite = D[np.isfinite(D)]
+        gate = float(rng.choice(finite)) * rng.choice([0.999, 1.0]) if len(finite) else 0.5  # at a cost and just below
+        near_r = bool((D <= gate).any())
+        for apply in (True, False):
+            new, near = kernels.new_near(*ends, frame, track2d, camera, ubox, 100, 110, 105, seen, P, 3, 5, gate, apply)
+            assert np.array_equal(new, new_r)
+            assert near == (apply and near_r)
+        near_seen += near_r
+        far_seen += len(new_r) > 0 and not near_r
+    assert near_seen > 10 and far_seen > 10
 
 
 def test_old_entries_kernel_equals_numpy_reference():
@@ -171,17 +223,3 @@ def test_keep_views_kernel_equals_numpy_reference():
         want = keep_views_numpy(members, ids, track_id, prev_track_id, prev_ids)
         got = kernels.keep_views(members, ids.copy(), track_id, prev_track_id, prev_ids)
         assert np.array_equal(got, want)
-
-
-def test_first_costs_equal_the_reference_round_from_the_ends():
-    rng = np.random.default_rng(10)
-    for _ in range(100):
-        M, C = int(rng.integers(1, 8)), 4
-        ids = np.where(rng.random((M, C)) < 0.7, rng.integers(0, 6, (M, C)), -1)
-        ends = (C, ids, rng.integers(95, 108, (M, C)), rng.permutation(50)[:M], rng.integers(98, 106, M),
-                rng.uniform(-3, 3, (M, 3)), rng.normal(0, 0.2, (M, 3)))
-        frame, track2d, camera, ubox, new, *_, P = _random_round(rng)
-        got = kernels.first_costs(*ends, frame, track2d, camera, ubox, new, P, 3, 5)
-        cam_o, t_o, last_o, _, lf, lx, lv = old_entries_numpy(*ends)
-        want = link_costs_numpy(frame, track2d, camera, ubox, new, cam_o, t_o, last_o, lf, lx, lv, P, 3, 5)
-        assert np.array_equal(got, want, equal_nan=True)

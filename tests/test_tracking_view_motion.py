@@ -164,6 +164,42 @@ def test_too_close_kernel_equals_numpy_reference():
         assert np.array_equal(got, want) and (n < 50 or 0 < got.sum() < n)
 
 
+def test_suppress_duplicates_drops_gone_and_close_points_and_their_boxes():
+    """The reported tracks without the points already gone and those too close to an older
+    track's (among the rest), and the boxes of exactly those (frame, track) points; only the
+    close ones counted."""
+    from gymtrack.detections import Detections
+    from gymtrack.tracking.exclusion import suppress_duplicates
+    from gymtrack.tracking.types import Tracks3D
+
+    rng = np.random.default_rng(6)
+    for n in (0, 1, 40, 300):
+        frame = np.sort(rng.integers(0, max(2, n // 10), n))
+        tid = rng.integers(0, n // 4 + 2, n)
+        xyz = rng.uniform(0, 2, (n, 3))
+        xyz[rng.random(n) < 0.05] = np.nan
+        tracks = Tracks3D(frame, tid, xyz, xyz[:, 2] + 1, xyz[:, 2] - 1, np.zeros(n, np.int8), np.ones(n, np.int8))
+        pick = rng.integers(0, max(n, 1), 2 * n)
+        boxes = Detections.from_arrays(frame[pick] if n else [], rng.integers(0, 2, 2 * n), rng.uniform(0, 9, (2 * n, 4)),
+                                       ("a", "b"), track_id=tid[pick] if n else [])
+        for gone in (None, rng.random(n) < 0.2):
+            skip = np.zeros(n, bool) if gone is None else gone
+            rest = np.flatnonzero(~skip)
+            close = np.zeros(n, bool)
+            close[rest] = too_close_numpy(frame[rest], tid[rest], xyz[rest], 0.5) if len(rest) >= 2 else False
+            drop = skip | close
+            counts = {"points_suppressed": 0}
+            kept, kept_boxes = suppress_duplicates(tracks, boxes, counts, gone)
+            assert counts["points_suppressed"] == close.sum() and np.array_equal(kept.frame, frame[~drop])
+            assert np.array_equal(kept.track_id, tid[~drop]) and np.array_equal(kept.xyz, xyz[~drop], equal_nan=True)
+            lost = set(zip(frame[drop].tolist(), tid[drop].tolist()))
+            keep_box = np.array([(f, t) not in lost for f, t in zip(boxes.frame.tolist(), boxes.track_id.tolist())], bool)
+            assert np.array_equal(kept_boxes.frame, boxes.frame[keep_box])
+            assert np.array_equal(kept_boxes.track_id, boxes.track_id[keep_box])
+            if gone is None and n > 40:
+                assert 0 < close.sum() < n and keep_box.sum() < len(boxes)
+
+
 def test_superseded_when_a_later_window_took_every_box():
     # detections 1, 2 (frame 5) were track 7's in window 0; window 1 gave 1 to track 9 and 2 to
     # track 7 again; detection 3 (frame 6) went from track 7 (window 0) to track 9 (window 1)

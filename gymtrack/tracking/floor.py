@@ -43,7 +43,6 @@ import numpy as np
 from ..geometry.arrays import PlaneArrays, RigArrays
 from ._kernels import floor as kernels
 from .plane_fallback import MIN_COS
-from .reconstruct import outliers_by_place
 from .types import INTERPOLATED, PLANE, WindowTracklets, WindowTracklets3D
 
 MIN_HEIGHT, MAX_HEIGHT = 0.7, 2.4  #: metres: a seated to a tall standing person's top (floor candidates)
@@ -136,47 +135,42 @@ def floor_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | No
     ids (``oracle``: ``track2d // C``) hold here as on the plane. Returns the floor tracklets
     after the outlier test (``members`` index ``segs``; None when none) and the segments left
     for the apparatus plane. ``floor_only``: segments that may go to the floor only (the ghosts'
-    of :func:`drop_floor_ghosts`; dropped, and counted, when the floor does not take them)."""
-    C = len(rig.K)
-    n_plane = len(to_plane)
-    if floor_only is not None and len(floor_only):
-        to_plane = np.concatenate([to_plane, floor_only])
-    if not len(to_plane):
+    of :func:`drop_floor_ghosts`; dropped, and counted, when the floor does not take them).
+
+    One kernel call (:func:`._kernels.floor.floor_split`: the segments taken out of the
+    window's arrays, Eq. 2's separations, :func:`floor_stage`'s kernel and Eq. 4 by place):
+    the Python around it cost more than the work (numpy reference: ``tests/reference/floor.py``)."""
+    fo = _NO_INDEX if floor_only is None else floor_only
+    if not len(to_plane) + len(fo):
         return None, to_plane
-    # only the arrays the floor reads are taken (a full ``segs.subset`` copies seven), and the
-    # kernel's output becomes one WindowTracklets3D, after the outlier test (a few us a window)
-    apart = None if D2 is None else D2[to_plane][:, to_plane] >= params.cluster_2d  # (two takes: cheaper than np.ix_)
-    labels = np.unique(segs.track2d[to_plane] // C, return_inverse=True)[1] if oracle else None
-    xyz, top, bottom, valid, source, n_views, members, used = kernels.floor_stage(
-        _f64(segs.box[to_plane]), _c(segs.valid[to_plane]), _c(segs.observed[to_plane]), _c(segs.camera[to_plane], np.int64),
-        rig, _space(scene.performance_space), kernels.NO_APART if apart is None else _c(apart, bool),
-        kernels.NO_GROUP if labels is None else _c(labels, np.int64), _rules(params.cluster_plane))
-    counts["segments_to_floor"] += int(np.count_nonzero(used))
+    xyz, top, bottom, valid, source, n_views, members, rest, stats = kernels.floor_split(
+        segs.box, segs.valid, segs.observed, segs.camera, to_plane, fo, _NO_D2 if D2 is None else D2,
+        float(params.cluster_2d), segs.track2d // len(rig.K) if oracle else kernels.NO_GROUP, rig,
+        _space(scene.performance_space), _tracking_space(scene), float(params.max_speed), _rules(params.cluster_plane))
+    taken, n_outliers, n_ghost = stats.tolist()
+    counts["segments_to_floor"] += taken
+    if n_outliers:  # Eq. 4, as for every 3D tracklet
+        counts["tracklets_outliers"] += n_outliers
     fl = None
     if len(members):
-        bad = outliers_by_place(xyz, valid, _tracking_space(scene), params.max_speed)
-        if bad.any():  # Eq. 4, as for every 3D tracklet
-            keep = np.flatnonzero(~bad)  # (integer takes: cheaper than a mask per column)
-            counts["tracklets_outliers"] += len(bad) - len(keep)
-            xyz, top, bottom, valid, source, n_views, members = (
-                a[keep] for a in (xyz, top, bottom, valid, source, n_views, members))
-        if len(members):
-            fl = WindowTracklets3D(segs.start, xyz, top, bottom, valid, source, n_views,
-                                   np.where(members >= 0, to_plane[np.maximum(members, 0)], -1),
-                                   np.full(len(members), -1, np.int64))
-            counts["floor_tracklets"] += len(fl)
-    rest = ~used
-    if rest[n_plane:].any():
-        counts["segments_dropped_ghost"] += int(rest[n_plane:].sum())
-        rest[n_plane:] = False
-    return fl, to_plane[rest]  # (to_plane[:n_plane] is sorted, the ghosts' are not kept)
+        fl = WindowTracklets3D(segs.start, xyz, top, bottom, valid, source, n_views, members,
+                               np.full(len(members), -1, np.int64))
+        counts["floor_tracklets"] += len(fl)
+    if n_ghost:
+        counts["segments_dropped_ghost"] += n_ghost
+    return fl, rest  # (in to_plane's order; the ghosts' are not kept)
+
+
+_NO_INDEX = np.zeros(0, np.int64)
+_NO_D2 = np.zeros((0, 0))
 
 
 AIR = 0.25  #: metres: a body whose bottom is higher than this has left the floor
 
 
 def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig: RigArrays, planes, params, scene,
-                      counts: dict, owner=None) -> tuple[WindowTracklets3D | None, np.ndarray]:
+                      counts: dict, owner=None, outliers: tuple | None = None
+                      ) -> tuple[WindowTracklets3D | None, np.ndarray]:
     """``cascade+``: the two-view triangulated clusters the floor says are ghosts (a wrong pair
     of two people's segments triangulates to a short body floating above the floor).
 
@@ -191,31 +185,40 @@ def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig:
     (the test is for new, wrong pairings; issue 12: it also took the target's own pair in the
     air off the apparatus plane, e.g. on the pommel horse). Trade: a wrong pair that survived one
     window keeps surviving while both its 2D tracks last (+4 to +7 % false positives on the
-    suite, -0.005 MOTA). Returns the clusters kept
+    suite, -0.005 MOTA). ``owner`` may also be the tracker's ``(prev_2d, prev_owner)``: the 2D
+    tracks of the previous window's tracklets and their 3D tracks (:class:`~.linking.WindowLinker`).
+    ``outliers``: (tracking space (6,), max_speed): Eq. 4 by place first
+    (:func:`.reconstruct.outliers_by_place`, counted in ``tracklets_outliers``; the tracker's
+    order), in the same call. Returns the clusters kept
     and the ghosts' segments (indices into ``segs``, for the floor stage only). One kernel call
-    (:func:`._kernels.floor.ghost_test`).
+    (:func:`._kernels.floor.ghost_split`: :func:`._kernels.floor.ghost_test` and the confirmation).
     """
-    none = np.zeros(0, np.int64)
     if tri is None or not len(tri):
-        return tri, none
-    ghost = kernels.ghost_test(
-        _c(tri.members, np.int64), _c(tri.valid), _f64(tri.bottom_z), _f64(tri.xyz), _f64(segs.box), _c(segs.valid),
-        _c(segs.observed), _c(segs.camera, np.int64), rig, PlaneArrays.from_planes(planes),
-        _space(scene.performance_space), AIR, MIN_COS, _rules(params.cluster_plane))
-    if not ghost.any():  # the usual window: no ghost, nothing more to look up
-        return tri, none
-    if owner is not None:  # a pair already one track's in the last window is confirmed
-        owner = owner() if callable(owner) else owner  # (the tracker's look-up: only when needed)
-        o = np.where(tri.members >= 0, owner[np.maximum(tri.members, 0)], -2)
-        lo = np.where(tri.members >= 0, o, np.iinfo(np.int64).max).min(axis=1)
-        confirmed = (lo >= 0) & ((o == lo[:, None]) | (tri.members < 0)).all(axis=1)
-        counts["floor_ghosts_confirmed"] += int((ghost & confirmed).sum())
-        ghost &= ~confirmed
-        if not ghost.any():
-            return tri, none
-    counts["floor_ghosts"] += int(ghost.sum())
-    pair = np.sort(tri.members[ghost], axis=1)[:, -2:]  # (n, 2) the two segments
-    return tri.subset(~ghost), np.sort(pair.ravel())
+        return tri, _NO_INDEX
+    if owner is None:
+        prev_2d = prev_owner = _NO_INDEX
+    elif isinstance(owner, tuple):
+        prev_2d, prev_owner = owner
+    else:  # (K,) per segment, or a callable giving it
+        prev_2d, prev_owner = segs.track2d, np.asarray(owner() if callable(owner) else owner, np.int64)
+    tspace, max_speed = (_NO_SPACE, 0.0) if outliers is None else outliers
+    drop, pair, stats = kernels.ghost_split(
+        tri.members, tri.valid, tri.bottom_z, tri.xyz, segs.box, segs.valid, segs.observed, segs.camera, segs.track2d,
+        prev_2d, prev_owner, owner is not None, rig, PlaneArrays.from_planes(planes), _space(scene.performance_space),
+        AIR, MIN_COS, _rules(params.cluster_plane), tspace, float(max_speed), outliers is not None)
+    n_outliers, any_ghost, confirmed, n = stats.tolist()
+    if n_outliers:
+        counts["tracklets_outliers"] += n_outliers
+    if any_ghost and owner is not None:
+        counts["floor_ghosts_confirmed"] += confirmed
+    if n:
+        counts["floor_ghosts"] += n
+    if not n_outliers and not n:  # the usual window: nothing dropped
+        return tri, _NO_INDEX
+    return tri.subset(~drop), pair
+
+
+_NO_SPACE = np.zeros(6)
 
 
 def solo_inside(pl: WindowTracklets3D, space: np.ndarray, counts: dict) -> WindowTracklets3D:

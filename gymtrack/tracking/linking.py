@@ -277,7 +277,7 @@ class WindowLinker:
         has = cur.members >= 0
         self.prev_2d = track2d[cur.members[has]]
         if self.by_2d:
-            self.prev_owner = np.broadcast_to(cur.track_id[:, None], cur.members.shape)[has]
+            self.prev_owner = np.repeat(cur.track_id, has.sum(1))  # (row-major, as prev_2d; cheaper than broadcast_to)
         self.prev_seen = track2d
         self._prev_first_new = first_new
         self._end_tracks(cur)

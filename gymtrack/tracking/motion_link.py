@@ -75,20 +75,11 @@ class MotionLinker:
         if not M:
             self.ends, self.view_ids, self.view_track = (), np.zeros(0, np.int64), np.zeros((0, C), np.int64)
             return
-        # (compiled: tracklet_ends and the last observed frames, :mod:`._kernels.motion_link`)
-        lf, lx, lv = kernels.tracklet_ends(np.ascontiguousarray(cur.xyz, np.float64), np.ascontiguousarray(cur.valid),
-                                           cur.start, self.max_speed)
-        members, tid = np.ascontiguousarray(cur.members, np.int64), cur.track_id.astype(np.int64)  # (a copy: kept)
-        if len(segs):
-            last_obs = kernels.last_observed(members, np.ascontiguousarray(segs.observed), segs.start)
-            ids = np.ascontiguousarray(segs.track2d[np.maximum(members, 0)], np.int64)
-        else:
-            last_obs, ids = np.full((M, C), -1 << 40, np.int64), np.zeros((M, C), np.int64)
-        # a view without a member keeps the 2D track it had (or adopted) before (compiled)
-        if len(self.view_track):
-            ids = kernels.keep_views(members, ids, tid, self.view_ids, self.view_track)
-        else:
-            ids[members < 0] = -1
+        # (compiled, one call: tracklet_ends, the last observed frames, the views' 2D tracks and
+        # what a view without a member keeps, :func:`._kernels.motion_link.remember`)
+        lf, lx, lv, last_obs, ids, tid = kernels.remember(
+            cur.xyz, cur.valid, cur.start, self.max_speed, cur.members, segs.observed, segs.start, segs.track2d,
+            cur.track_id, self.view_ids, self.view_track)
         self.view_ids, self.view_track = tid, ids
         self.ends = (C, ids, last_obs, tid, lf, lx, lv)  # (spread per view only when a link is tried)
 
@@ -97,21 +88,25 @@ class MotionLinker:
         lost view are renamed (in ``rows``, the :class:`~.records.BoxTable` columns, and in the
         IoU tracker). ``seen``: the 2D tracks of the previous window's segments."""
         frame, track2d = rows["frame"], rows["track2d"]
+        cam, ubox = rows["camera"], rows["ubox"]  # (int64, float64, C order: the BoxTable's columns)
         fresh_from = start + self.width - self.step_frames  # frames no earlier window covered
-        # (compiled: the rows are in frame order, a track's first row in the window its first box)
-        new = kernels.new_tracks(frame, track2d, start, start + self.width, fresh_from,
-                                 np.ascontiguousarray(seen, np.int64))
-        linked = 0
-        if len(new) and self.ends and self.start == start - self.step_frames:
-            linked = self._link(new, frame, track2d, rows, iou)
+        # (compiled, one call: the rows are in frame order, a track's first row in the window its
+        # first box; then the first round's costs, when the ends are the previous window's)
+        ends_apply = bool(self.ends) and self.start == start - self.step_frames
+        new, near = kernels.new_near(*(self.ends or self._no_ends(len(self.P))), frame, track2d, cam, ubox, start,
+                                     start + self.width, fresh_from, np.ascontiguousarray(seen, np.int64), self.P,
+                                     FRAMES, self.max_gap, self.gate, ends_apply)
+        linked = self._link(new, frame, track2d, cam, ubox, iou) if near else 0  # (usually nothing is near)
         self.counts["links_3d_motion"] += linked
         self.counts["new_2d_tracks_unlinked"] += len(new) - linked
 
-    def _link(self, new: np.ndarray, frame: np.ndarray, track2d: np.ndarray, rows: dict, iou: IoUTracker) -> int:
-        cam, ubox = np.ascontiguousarray(rows["camera"], np.int64), np.ascontiguousarray(rows["ubox"], np.float64)
-        D = kernels.first_costs(*self.ends, frame, track2d, cam, ubox, new, self.P, FRAMES, self.max_gap)
-        if not (D <= self.gate).any():  # the usual case: nothing to link, one compiled call
-            return 0
+    @staticmethod
+    def _no_ends(C: int) -> tuple:
+        i = np.zeros(0, np.int64)
+        return C, np.zeros((0, C), np.int64), np.zeros((0, C), np.int64), i, i, np.zeros((0, 3)), np.zeros((0, 3))
+
+    def _link(self, new: np.ndarray, frame: np.ndarray, track2d: np.ndarray, cam: np.ndarray, ubox: np.ndarray,
+              iou: IoUTracker) -> int:
         # one entry per old 2D track: its view, 2D track, last frame seen, 3D track and end (compiled)
         cam_o, t_o, last_o, tid, lf, lx, lv = kernels.old_entries(*self.ends)
         linked = 0

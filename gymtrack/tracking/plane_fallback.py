@@ -19,6 +19,10 @@ views best.
 Shared frames are frames where both segments were observed (as for Eq. 2, see
 :mod:`.clustering`); the fused tracklet covers every frame where a member is valid.
 
+``cascade+`` (beyond the paper, issue 12) runs this stage through :func:`plane_split`: the same
+stage with its tracker-side steps (Eq. 2's separations, the one-view continuation, Eq. 4 by
+place, the one-view tracklets' performance-space test) in the same compiled call.
+
 Speed: a window hands this stage a few segments, where numpy's per-call overhead dominated,
 so :func:`plane_stage` is one compiled call (:func:`._kernels.plane.plane_stage`: candidates of
 all segments, points and planes, Eq. 8, Algorithm 1, Eq. 9). The kernel's steps one at a time
@@ -27,6 +31,7 @@ and their numpy references are in ``tests/reference/plane.py``.
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Sequence
 
 import numpy as np
@@ -35,6 +40,7 @@ from ..geometry.arrays import PlaneArrays, RigArrays
 from ..geometry.camera import Rig
 from ..geometry.plane import Plane
 from ._kernels.plane import NO_APART, NO_GROUP, NO_SINGLE, PlaneConstraints, PlaneRules
+from ._kernels.plane import plane_split as plane_split_kernel
 from ._kernels.plane import plane_stage as plane_stage_kernel
 from .types import INTERPOLATED, PLANE, WindowTracklets, WindowTracklets3D
 
@@ -79,5 +85,46 @@ def plane_stage(
     xyz, top, bottom, valid, source, n_views, members = plane_stage_kernel(
         c(segs.box, dtype=np.float64), c(segs.observed, dtype=bool), c(segs.camera, dtype=np.int64), arrays, planes,
         constraints, PlaneRules(MIN_COS, float(threshold), PLANE, INTERPOLATED))
+    return WindowTracklets3D(segs.start, xyz, top, bottom, valid, source, n_views, members,
+                             np.full(len(members), -1, np.int64))
+
+
+_NO_D2 = np.zeros((0, 0))
+
+
+@lru_cache(maxsize=8)
+def _rules(threshold: float) -> PlaneRules:  # (one per threshold: built once, not per window)
+    return PlaneRules(MIN_COS, threshold, PLANE, INTERPOLATED)
+
+
+def plane_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | None, rig: RigArrays,
+                planes: PlaneArrays, params, oracle: bool, prev_2d: np.ndarray, prev_seen: np.ndarray,
+                tracking_space: np.ndarray, performance_space: np.ndarray, counts: dict) -> WindowTracklets3D | None:
+    """``cascade+``'s plane stage for the segments ``to_plane`` (indices into ``segs``; the
+    tracker's hook, beyond the paper: issue 12), one kernel call
+    (:func:`._kernels.plane.plane_split`) doing what the cascade's tracker does around
+    :func:`plane_stage`: segments Eq. 2 separates (``D2 >= cluster_2d``) or an oracle's ids
+    (``oracle``: ``track2d // C``) tell apart are not fused; a view left alone may continue its 2D
+    track's 3D track when that 2D track was a member of the previous window's tracklets
+    (``prev_2d``) or is new (not among ``prev_seen``); Eq. 4 by place in ``tracking_space``
+    (:func:`.reconstruct.outliers_by_place`); a one-view tracklet is kept only while its points
+    stay inside ``performance_space`` (:func:`.floor.solo_inside`). Returns the plane tracklets
+    (``members`` index ``segs``), None when the stage fused nothing; counts as the cascade's
+    path counts them."""
+    C = len(rig.K)
+    xyz, top, bottom, valid, source, n_views, members, stats = plane_split_kernel(
+        segs.box, segs.observed, segs.camera, segs.track2d, to_plane, _NO_D2 if D2 is None else D2,
+        float(params.cluster_2d), segs.track2d // C if oracle else NO_GROUP, prev_2d, prev_seen, rig, planes,
+        _rules(float(params.cluster_plane)), tracking_space, float(params.max_speed),
+        performance_space)
+    fused, n_outliers, n_outside = stats.tolist()
+    counts["segments_to_plane"] += len(to_plane)
+    if not fused:
+        return None
+    if n_outliers:
+        counts["tracklets_outliers"] += n_outliers
+    if n_outside:
+        counts["plane_single_view_outside"] += n_outside
+    counts["plane_tracklets"] += len(members)
     return WindowTracklets3D(segs.start, xyz, top, bottom, valid, source, n_views, members,
                              np.full(len(members), -1, np.int64))

@@ -83,38 +83,16 @@ def opposite_clusters(members: np.ndarray, opposite: np.ndarray) -> np.ndarray:
 
     members: (M, C) segment per cluster and camera (-1: none); opposite: (C, C) bool table of
     opposite camera pairs (:func:`gymtrack.geometry.views.opposite_pairs`). Returns (M,) bool.
-
-    Each cluster's set of cameras is read as a bit mask and looked up in a table of the
-    opposite pairs' masks (built once per ``opposite``): two numpy calls per window.
+    One compiled pass (:func:`._kernels.reconstruct.opposite_clusters`; the numpy bit-mask
+    table it replaced: ``tests/reference/reconstruct.py``).
     """
-    M, C = members.shape
-    if C > 16:  # (the table would be too large) pick the two cameras explicitly
-        has = members >= 0
-        two = has.sum(axis=1) == 2
-        out = np.zeros(M, bool)
-        if two.any():
-            cams = np.argsort(~has[two], axis=1, kind="stable")[:, :2]  # the two cameras
-            out[two] = opposite[cams[:, 0], cams[:, 1]]
-        return out
-    return _opposite_table(opposite)[(members >= 0) @ (1 << np.arange(C))]
+    return kernels.opposite_clusters(np.ascontiguousarray(members, np.int64), np.ascontiguousarray(opposite, bool))
 
 
-_OPPOSITE_TABLES: dict[bytes, np.ndarray] = {}
-
-
-def _opposite_table(opposite: np.ndarray) -> np.ndarray:
-    """(2^C,) bool: True at the camera bit masks of the opposite pairs (exactly two cameras)."""
-    key = np.asarray(opposite, bool).tobytes() + bytes([len(opposite)])
-    table = _OPPOSITE_TABLES.get(key)
-    if table is None:
-        table = np.zeros(1 << len(opposite), bool)
-        i, j = np.nonzero(np.asarray(opposite, bool))
-        keep = i != j
-        table[(1 << i[keep]) | (1 << j[keep])] = True
-        if len(_OPPOSITE_TABLES) > 32:
-            _OPPOSITE_TABLES.clear()
-        _OPPOSITE_TABLES[key] = table
-    return table
+def fallback_segments(members: np.ndarray, fallback: np.ndarray) -> np.ndarray:
+    """The cascade's (III-C) segments for the plane: those of the clusters ``fallback`` (M,) bool
+    (members (M, C), -1: none), sorted. One compiled pass."""
+    return kernels.fallback_segments(np.ascontiguousarray(members, np.int64), np.ascontiguousarray(fallback, bool))
 
 
 def outliers(xyz: np.ndarray, valid: np.ndarray, space: np.ndarray, max_speed: float) -> np.ndarray:
@@ -158,6 +136,6 @@ def source_for(n_views: np.ndarray, code: int) -> np.ndarray:
 
 
 __all__ = [
-    "cluster_members", "observed_views", "triangulate_clusters", "opposite_clusters", "outliers", "outliers_by_place",
-    "source_for", "PLANE", "TRIANGULATION",
+    "cluster_members", "observed_views", "triangulate_clusters", "opposite_clusters", "fallback_segments", "outliers",
+    "outliers_by_place", "source_for", "PLANE", "TRIANGULATION",
 ]

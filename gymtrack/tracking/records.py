@@ -214,7 +214,8 @@ class WindowRecords:
             sel = mem.select(final)
             order = np.lexsort((-sel.window, sel.det))  # per detection, the latest window first
             self._sorted = (mem, upto, final, sel, order)  # boxes(upto) next needs the same rows and sort
-            est = superseded(r.frame, r.track_id, win[done], sel, order)
+            # (:func:`superseded`'s kernel straight away: these columns are int64 and C order already)
+            est = kernels.superseded(r.frame, r.track_id, win[done], sel.det, sel.frame, sel.track_id, sel.window, order)
             if est.any():  # a point is gone when none of its estimates kept a detection
                 span = int(out.track_id.max()) + 1
                 gone = ~np.isin(out.frame * span + out.track_id, r.frame[~est] * span + r.track_id[~est])

@@ -69,10 +69,10 @@ from .exclusion import suppress_duplicates
 from .fusion import PlaneRayFusion
 from .linking import WindowLinker
 from .motion_link import MotionLinker
-from .plane_fallback import plane_stage
+from .plane_fallback import plane_split, plane_stage
 from .plane_fit import REFINE_EVERY
 from .plane_refine import PlaneRefiner
-from .reconstruct import cluster_members, opposite_clusters, outliers, outliers_by_place, triangulate_clusters
+from .reconstruct import cluster_members, fallback_segments, opposite_clusters, outliers, outliers_by_place, triangulate_clusters
 from .single_view import IoUTracker
 from .single_view_motion import MotionIoUTracker, needs_motion
 from .target import TargetStage
@@ -125,6 +125,7 @@ class Tracker:
         self.planes = [Plane.from_spec(s) for s in scene.planes]
         self.plane_arrays = PlaneArrays.from_planes(self.planes)  # the planes as the plane kernel takes them
         self.space = np.asarray(scene.tracking_space, dtype=np.float64)
+        self.perf_space = np.asarray(scene.performance_space, dtype=np.float64)  # S_perf
         # (C, C) opposite camera pairs, judged at the scene's focus, the apparatus (see reconstruct)
         self.opposite = opposite_pairs(rig, scene.focus_point, p.opposite_angle_deg)
         warm_up()  # numba's compile / cache load of every kernel: once per process, never tracking time
@@ -320,20 +321,20 @@ class Tracker:
             fallback = ~multi | opposite_clusters(members, self.opposite)
             if self.fusion is not None:  # cascade+: two-view clusters fused with the plane (.fusion)
                 fused, fallback, multi = self.fusion.step(segs, members, fallback, multi)
-            back = members[fallback].ravel()
-            to_plane = np.sort(back[back >= 0])
+            to_plane = fallback_segments(members, fallback)  # (sorted)
             multi &= ~fallback
         else:
             self.counts["segments_dropped_single"] += int(np.count_nonzero(~multi))
         tri = triangulate_clusters(segs, members[multi], self.P)
         tri = tri if fused is None else WindowTracklets3D.concat([tri, fused])
-        bad = self._outliers(tri.xyz, tri.valid, self.space, p.max_speed)
-        if bad.any():
-            self.counts["tracklets_outliers"] += int(bad.sum())
-            tri = tri.subset(~bad)
-        if self.plus:  # the floor's ghost test; a ghost's segments may go to the floor only
+        if self.plus:  # Eq. 4 by place, then the floor's ghost test; a ghost's segments may go to the floor only
             tri, self._floor_only = drop_floor_ghosts(tri, segs, self.rig.arrays, self.plane_arrays, p, self.scene, self.counts,
-                                                      lambda: self.linker.owners(segs.track2d))
+                                                      (self.linker.prev_2d, self.linker.prev_owner), (self.space, p.max_speed))
+        else:
+            bad = self._outliers(tri.xyz, tri.valid, self.space, p.max_speed)
+            if bad.any():
+                self.counts["tracklets_outliers"] += int(bad.sum())
+                tri = tri.subset(~bad)
         if self.refiner is not None:  # the plane's points: what passed the tests, and the opposite pairs
             self.refiner.observe(segs, tri, members[fallback & ((members >= 0).sum(axis=1) >= 2)])
         self.counts["clusters_triangulated"] += len(tri)
@@ -351,6 +352,10 @@ class Tracker:
                                           self.counts, self._floor_only)
         if not len(to_plane):
             return None, floor
+        if self.plus and self.fusion is None:  # the same steps as below in one compiled call
+            return plane_split(segs, to_plane, D2, self.rig.arrays, self.plane_arrays, p, self.association == "oracle",
+                               self.linker.prev_2d, self.linker.prev_seen, self.space,
+                               self.perf_space, self.counts), floor
         sub = segs.subset(to_plane)
         plane_labels = None
         if self.association == "oracle":

@@ -3,7 +3,8 @@
 the tests compare the kernels with, on random inputs.
 
 :func:`floor_candidates` (K, W, 2) foot, (K, W) height, (K, W) ok; :func:`floor_distances` (K, K);
-:func:`floor_stage` -> (WindowTracklets3D, used (K,)); :func:`drop_floor_ghosts` -> (kept, ghost
+:func:`floor_stage` -> (WindowTracklets3D, used (K,)); :func:`floor_split` (the tracker's
+hook around it) -> (WindowTracklets3D or None, segments left); :func:`drop_floor_ghosts` -> (kept, ghost
 segments). Same signatures as the production functions of :mod:`gymtrack.tracking.floor`.
 """
 
@@ -147,7 +148,7 @@ def _crosses(a: np.ndarray, b: np.ndarray, box: np.ndarray) -> np.ndarray:
 
 
 def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig: RigArrays, planes, params, scene,
-                      counts: dict) -> tuple[WindowTracklets3D | None, np.ndarray]:
+                      counts: dict, owner: np.ndarray | None = None) -> tuple[WindowTracklets3D | None, np.ndarray]:
     """``cascade+``: the two-view triangulated clusters the floor says are ghosts (a wrong pair
     of two people's segments triangulates to a short body floating above the floor).
 
@@ -184,7 +185,52 @@ def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig:
     ghost = outside | far
     if not ghost.any():
         return tri, none
+    if owner is not None:  # (K,) the previous window's track of each segment: a pair of one track is confirmed
+        mem = tri.members[cand]
+        o = np.where(mem >= 0, owner[np.maximum(mem, 0)], -2)
+        lo = np.where(mem >= 0, o, np.iinfo(np.int64).max).min(axis=1)
+        confirmed = (lo >= 0) & ((o == lo[:, None]) | (mem < 0)).all(axis=1)
+        counts["floor_ghosts_confirmed"] += int((ghost & confirmed).sum())
+        ghost &= ~confirmed
+        if not ghost.any():
+            return tri, none
     bad = np.zeros(len(tri), bool)
     bad[cand[ghost]] = True
     counts["floor_ghosts"] += int(ghost.sum())
     return tri.subset(~bad), np.sort(pair[ghost].ravel())
+
+
+def floor_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | None, rig: RigArrays, params, scene,
+                oracle: bool, counts: dict, floor_only: np.ndarray | None = None
+                ) -> tuple[WindowTracklets3D | None, np.ndarray]:
+    """The tracker's floor hook: :func:`floor_stage` on the segments ``to_plane`` then
+    ``floor_only``, Eq. 2's separations (``D2 >= cluster_2d``) and oracle ids as constraints,
+    Eq. 4 by place (S_track) on the result; members index ``segs``. Returns the floor tracklets
+    (None when none) and the ``to_plane`` segments left for the plane."""
+    from reference.reconstruct import outliers_by_place_numpy
+
+    C = len(rig.K)
+    n_plane = len(to_plane)
+    if floor_only is not None and len(floor_only):
+        to_plane = np.concatenate([to_plane, floor_only])
+    if not len(to_plane):
+        return None, to_plane
+    apart = None if D2 is None else D2[np.ix_(to_plane, to_plane)] >= params.cluster_2d
+    labels = np.unique(segs.track2d[to_plane] // C, return_inverse=True)[1] if oracle else None
+    fl, used = floor_stage(segs.subset(to_plane), rig, params.cluster_plane, np.asarray(scene.performance_space, float),
+                           apart, labels)
+    counts["segments_to_floor"] += int(used.sum())
+    out = None
+    if len(fl):
+        bad = outliers_by_place_numpy(fl.xyz, fl.valid, np.asarray(scene.tracking_space, float), params.max_speed)
+        if bad.any():
+            counts["tracklets_outliers"] += int(bad.sum())
+            fl = fl.subset(~bad)
+        if len(fl):
+            out = fl.with_members(np.where(fl.members >= 0, to_plane[np.maximum(fl.members, 0)], -1))
+            counts["floor_tracklets"] += len(out)
+    rest = ~used
+    if rest[n_plane:].any():
+        counts["segments_dropped_ghost"] += int(rest[n_plane:].sum())
+        rest[n_plane:] = False
+    return out, to_plane[rest]

@@ -207,3 +207,35 @@ def plane_stage_numpy(segs, rig, planes, threshold, labels=None, apart=None, sin
         return WindowTracklets3D.empty(segs.start, segs.width, C)
     labels = complete_linkage_sequential(D, threshold) if agree else np.arange(K)
     return fuse_on_planes_numpy(segs, cand, Dp, labels, C, single, exists)
+
+
+def plane_split_numpy(segs, to_plane, D2, rig, planes, params, oracle, prev_2d, prev_seen, tracking_space,
+                      performance_space, counts):
+    """cascade+'s plane stage as the tracker ran it around the stage (the cascade's path):
+    segments taken out, Eq. 2's separations, oracle ids, the one-view continuation, the stage,
+    Eq. 4 by place, members to the window's segments, one-view tracklets only inside S_perf."""
+    from reference.reconstruct import outliers_by_place_numpy
+
+    sub = segs.subset(to_plane)
+    labels = np.unique(sub.track2d // len(rig), return_inverse=True)[1] if oracle else None
+    apart = None if D2 is None else D2[np.ix_(to_plane, to_plane)] >= params.cluster_2d
+    single = np.isin(sub.track2d, prev_2d) | ~np.isin(sub.track2d, prev_seen)
+    pl = plane_stage_numpy(sub, rig, planes, params.cluster_plane, labels, apart, single)
+    counts["segments_to_plane"] += len(to_plane)
+    if not len(pl):
+        return None
+    bad = outliers_by_place_numpy(pl.xyz, pl.valid, tracking_space, params.max_speed)
+    if bad.any():
+        counts["tracklets_outliers"] += int(bad.sum())
+        pl = pl.subset(~bad)
+    pl = pl.with_members(np.where(pl.members >= 0, to_plane[np.maximum(pl.members, 0)], -1))
+    s = performance_space
+    with np.errstate(invalid="ignore"):
+        x, y = pl.xyz[..., 0], pl.xyz[..., 1]
+        out = pl.valid & ~((x >= s[0]) & (x <= s[3]) & (y >= s[1]) & (y <= s[4]))
+    drop = ((pl.members >= 0).sum(1) == 1) & out.any(1)
+    if drop.any():
+        counts["plane_single_view_outside"] += int(drop.sum())
+        pl = pl.subset(~drop)
+    counts["plane_tracklets"] += len(pl)
+    return pl

@@ -64,3 +64,18 @@ def triangulate_clusters_numpy(segs, members, P):
     valid = np.isfinite(centre).all(axis=2)
     obs = segs.observed[np.where(has, members, 0)] & has[..., None]
     return centre, X[2, 1], X[2, 2], valid, obs.sum(axis=1).astype(np.int8)
+
+
+def opposite_clusters_numpy(members, opposite):
+    """The cascade's opposite two-view clusters as a bit-mask table lookup (what the kernel replaced)."""
+    C = members.shape[1]
+    table = np.zeros(1 << C, bool)
+    i, j = np.nonzero(np.asarray(opposite, bool))
+    keep = i != j
+    table[(1 << i[keep]) | (1 << j[keep])] = True
+    return table[(members >= 0) @ (1 << np.arange(C))]
+
+
+def fallback_segments_numpy(members, fallback):
+    back = members[fallback].ravel()
+    return np.sort(back[back >= 0])

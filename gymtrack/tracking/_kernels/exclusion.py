@@ -44,7 +44,17 @@ def too_close(frame, track_id, xyz, skip, min_sq):
     return out
 
 
+@njit(cache=True, error_model="numpy")
+def drop_close(frame, track_id, xyz, gone, min_sq):
+    """:func:`too_close` with ``gone`` (N,) bool as ``skip``, and what the suppression drops:
+    -> drop (N,) bool (``gone`` or too close), the number too close, the number dropped."""
+    close = too_close(frame, track_id, xyz, gone, min_sq)
+    drop = close | gone
+    return drop, np.count_nonzero(close), np.count_nonzero(drop)
+
+
 def warm_up() -> None:
     """Compile (or load) the kernel with the tracker's argument types."""
     i = np.array([0, 0], np.int64)
     too_close(i, np.array([0, 1], np.int64), np.zeros((2, 3)), np.zeros(2, np.bool_), 0.25)
+    drop_close(i, np.array([0, 1], np.int64), np.zeros((2, 3)), np.zeros(2, np.bool_), 0.25)

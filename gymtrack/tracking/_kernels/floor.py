@@ -24,6 +24,7 @@ from numba import njit
 from ...geometry.primitives import plane_offset, ray_direction, ray_plane
 from ..types import INTERPOLATED, PLANE
 from .clustering import complete_linkage
+from .reconstruct import outliers_by_place
 from .sample import sample
 
 _NAN = np.nan
@@ -217,6 +218,66 @@ def floor_stage(box, valid, observed, camera, rig, space, apart, group, rules):
 
 
 @njit(cache=True, error_model="numpy")
+def floor_split(box, valid, observed, camera, to_plane, floor_only, D2, cut, person, rig, space, tspace, max_speed,
+                rules):
+    """The tracker's floor hook (:func:`gymtrack.tracking.floor.floor_split`) in one call: the
+    segments ``to_plane`` then ``floor_only`` (int64 indices into the window's box, valid,
+    observed (K, W), camera (K,)) taken out, Eq. 2's separations (``D2`` (K, K) >= ``cut``;
+    (0, 0): none) and oracle ids (``person`` (K,); (0,): none) as constraints,
+    :func:`floor_stage`, then Eq. 4 by place (:func:`.reconstruct.outliers_by_place`, ``tspace``).
+    Returns xyz, top_z, bottom_z, valid, source, n_views of the kept floor tracklets, their
+    members (indices of the window's segments), the ``to_plane`` segments left for the plane
+    (in order) and (3,) int64 counts: segments taken, outlier tracklets, ``floor_only`` left."""
+    n_plane = len(to_plane)
+    K = n_plane + len(floor_only)
+    idx = np.empty(K, np.int64)
+    idx[:n_plane] = to_plane
+    idx[n_plane:] = floor_only
+    apart = NO_APART
+    if D2.shape[0] > 0:  # Eq. 2 says different people: never one on the floor
+        apart = np.empty((K, K), np.bool_)
+        for i in range(K):
+            for j in range(K):
+                apart[i, j] = D2[idx[i], idx[j]] >= cut
+    group = NO_GROUP
+    if person.shape[0] > 0:
+        group = person[idx]
+    xyz, top, bottom, fvalid, source, n_views, members, used = floor_stage(
+        box[idx], valid[idx], observed[idx], camera[idx], rig, space, apart, group, rules)
+    stats = np.zeros(3, np.int64)
+    for k in range(K):
+        stats[0] += used[k]
+        if k >= n_plane and not used[k]:
+            stats[2] += 1
+    n_rest = 0
+    for k in range(n_plane):
+        n_rest += not used[k]
+    rest = np.empty(n_rest, np.int64)
+    n_rest = 0
+    for k in range(n_plane):
+        if not used[k]:
+            rest[n_rest] = idx[k]
+            n_rest += 1
+    M = members.shape[0]
+    keep = np.ones(M, np.bool_)
+    if M > 0:
+        keep = ~outliers_by_place(xyz, fvalid, tspace, max_speed)
+    n_keep = 0
+    for m in range(M):
+        n_keep += keep[m]
+    stats[1] = M - n_keep
+    if n_keep < M:  # (integer takes of the kept rows)
+        rows = np.flatnonzero(keep)
+        xyz, top, bottom, fvalid, source, n_views, members = (
+            xyz[rows], top[rows], bottom[rows], fvalid[rows], source[rows], n_views[rows], members[rows])
+    for m in range(members.shape[0]):  # members index the window's segments
+        for c in range(members.shape[1]):
+            if members[m, c] >= 0:
+                members[m, c] = idx[members[m, c]]
+    return xyz, top, bottom, fvalid, source, n_views, members, rest, stats
+
+
+@njit(cache=True, error_model="numpy")
 def _plane_distance(box, valid, camera, rig, planes, i, j, min_cos):
     """Eq. 8 between the box-centre candidates of segments i and j on the apparatus planes, the
     smallest over the planes (inf without a shared frame)."""
@@ -296,6 +357,64 @@ def ghost_test(members, valid3, bottom_z, xyz, box, valid, observed, camera, rig
     return ghost
 
 
+@njit(cache=True, error_model="numpy")
+def ghost_split(members, valid3, bottom_z, xyz, box, valid, observed, camera, track2d, prev_2d, prev_owner, confirm,
+                rig, planes, space, air, min_cos, rules, tspace, max_speed, by_place):
+    """:func:`ghost_test` and what :func:`gymtrack.tracking.floor.drop_floor_ghosts` does with it, in
+    one call. track2d (K,): the segments' 2D tracks; ``confirm``: a ghost whose 2D tracks were all
+    members of one 3D track of the previous window (``prev_owner`` (n,) of the 2D tracks
+    ``prev_2d`` (n,); -1 / none found: no track) is kept; ``by_place``: first Eq. 4 by place
+    (:func:`.reconstruct.outliers_by_place` in ``tspace``; the outliers are not tested).
+    Returns drop (M,) bool (outliers and ghosts), the ghosts' segments (sorted) and (4,) int64:
+    outliers, any ghost before the confirmation (0 / 1), ghosts confirmed, ghosts."""
+    M, C = members.shape
+    stats = np.zeros(4, np.int64)
+    bad = np.zeros(M, np.bool_)
+    if by_place and M > 0:
+        bad = outliers_by_place(xyz, valid3, tspace, max_speed)
+    ghost = ghost_test(members, valid3, bottom_z, xyz, box, valid, observed, camera, rig, planes, space, air, min_cos,
+                       rules)  # (row by row: an outlier's answer is not used)
+    for m in range(M):
+        stats[0] += bad[m]
+        ghost[m] = ghost[m] and not bad[m]
+        stats[3] += ghost[m]
+    if stats[3] == 0:
+        return bad, np.zeros(0, np.int64), stats
+    stats[1] = 1
+    if confirm:
+        known = len(prev_2d) > 0 and len(prev_owner) == len(prev_2d)
+        for m in range(M):
+            if not ghost[m]:
+                continue
+            first, same = -2, True  # every member's owner one and the same track (>= 0)
+            for c in range(C):
+                k = members[m, c]
+                if k < 0:
+                    continue
+                o = -1
+                if known:
+                    for q in range(len(prev_2d)):
+                        if prev_2d[q] == track2d[k]:
+                            o = prev_owner[q]
+                            break
+                if o < 0 or (first != -2 and o != first):
+                    same = False
+                first = o
+            if same and first >= 0:
+                ghost[m] = False
+                stats[2] += 1
+        stats[3] -= stats[2]
+    pair = np.empty(2 * stats[3], np.int64)
+    n = 0
+    for m in range(M):
+        if ghost[m]:
+            for c in range(C):
+                if members[m, c] >= 0:
+                    pair[n] = members[m, c]
+                    n += 1
+    return bad | ghost, np.sort(pair[:n]), stats
+
+
 def warm_up() -> None:
     """Compile (or load) both kernels on the sample person's two views, with and without
     constraints."""
@@ -309,5 +428,13 @@ def warm_up() -> None:
     for apart, group in ((NO_APART, NO_GROUP), (np.zeros((2, 2), bool), np.zeros(2, np.int64))):
         floor_stage(s.box, valid, s.observed, s.camera, rig, space, apart, group, rules)
     M, W = 1, s.box.shape[1]
+    D2 = np.zeros((2, 2))
+    for d2, person in ((np.zeros((0, 0)), NO_GROUP), (D2, np.zeros(2, np.int64))):
+        floor_split(s.box, valid, s.observed, s.camera, np.array([0], np.int64), np.array([1], np.int64), d2, 1.0,
+                    person, rig, space, space, 0.5, rules)
     ghost_test(np.array([[0, 1]], np.int64), np.ones((M, W), bool), np.ones((M, W)), np.ones((M, W, 3)), s.box,
                valid, s.observed, s.camera, rig, PlaneArrays.from_planes(s.planes), space, 0.25, 1e-3, rules)
+    i2 = np.arange(2, dtype=np.int64)
+    ghost_split(np.array([[0, 1]], np.int64), np.ones((M, W), bool), np.ones((M, W)), np.ones((M, W, 3)), s.box,
+                valid, s.observed, s.camera, i2, i2, i2, True, rig, PlaneArrays.from_planes(s.planes), space, 0.25, 1e-3,
+                rules, space, 0.5, True)

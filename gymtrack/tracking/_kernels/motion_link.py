@@ -3,11 +3,10 @@
 :func:`link_costs`: one round of :class:`gymtrack.tracking.motion_link.MotionLinker` -- the old
 2D tracks' last boxes, the new tracks' first boxes and views, the (L, T) mean offset from the
 projected constant-velocity prediction and the view / gap gates -- in one call instead of ~40
-numpy calls (the arrays are a window's: ~15 old entries, ~3 new tracks). :func:`window_ends`:
+numpy calls (the arrays are a window's: ~15 old entries, ~3 new tracks). :func:`remember`:
 what :meth:`~gymtrack.tracking.motion_link.MotionLinker.remember` keeps per (tracklet, view);
-:func:`new_tracks`: a window's new 2D tracks; :func:`old_entries`: the previous window's, one
-entry per 2D track; :func:`keep_views`: the 2D track a view without a member keeps; :func:`first_costs`: the first
-round in one call.
+:func:`new_tracks`: a window's new 2D tracks (:func:`new_near`: and whether the first round links any); :func:`old_entries`: the previous window's, one
+entry per 2D track; :func:`keep_views`: the 2D track a view without a member keeps.
 The numpy code they replace is ``tests/reference/motion_link.py``; the arithmetic is written in
 the reference's order (numpy's einsum order, no fused multiply-add), so the results are the same to the last bit and
 the links never change.
@@ -140,9 +139,45 @@ def new_tracks(frame, track2d, start, stop, fresh_from, seen):
     ``start .. stop - 1`` whose first box there lies at ``fresh_from`` or later and which are
     not among ``seen`` (M,)."""
     a = np.searchsorted(frame, start)
-    f = np.searchsorted(frame, fresh_from)
+    f = max(np.searchsorted(frame, fresh_from), a)
     b = np.searchsorted(frame, stop)
-    fresh = np.sort(track2d[max(f, a):b])
+    if f >= b:
+        return np.zeros(0, np.int64)
+    lo, hi = track2d[f], track2d[f]
+    for i in range(f, b):
+        lo = min(lo, track2d[i])
+        hi = max(hi, track2d[i])
+    span = hi - lo + 1
+    if span > 8 * (b - f) + 256:  # ids too spread out for a table over their range
+        return _new_tracks_sorted(frame, track2d, a, f, b, seen)
+    # ids are small integers: one table over the fresh rows' id range (no sort, no search)
+    state = np.zeros(span, np.int8)  # 1: a fresh row's track, 2: not new
+    for i in range(f, b):
+        state[track2d[i] - lo] = 1
+    for i in range(a, f):  # a track with a box before fresh_from is not new
+        r = track2d[i] - lo
+        if r >= 0 and r < span:
+            state[r] = 2
+    for q in range(len(seen)):
+        r = seen[q] - lo
+        if r >= 0 and r < span:
+            state[r] = 2
+    n = 0
+    for r in range(span):
+        n += state[r] == 1
+    out = np.empty(n, np.int64)
+    n = 0
+    for r in range(span):
+        if state[r] == 1:
+            out[n] = lo + r
+            n += 1
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def _new_tracks_sorted(frame, track2d, a, f, b, seen):
+    """:func:`new_tracks` of the rows ``a .. b - 1`` (fresh from ``f``) by sorting the fresh rows' ids."""
+    fresh = np.sort(track2d[f:b])
     cand = np.empty(len(fresh), np.int64)  # the fresh frames' tracks, once each (a handful)
     n = 0
     for p in range(len(fresh)):
@@ -151,11 +186,8 @@ def new_tracks(frame, track2d, start, stop, fresh_from, seen):
             n += 1
     cand = cand[:n]
     keep = np.ones(n, np.bool_)
-    if n == 0:
-        return cand
-    # a track with a box before fresh_from is not new; each earlier row is looked up among the
-    # few candidates (no sort of the window's earlier rows, the many)
-    for i in range(a, min(f, b)):
+    # each earlier row is looked up among the few candidates (no sort of the many)
+    for i in range(a, f):
         k = np.searchsorted(cand, track2d[i])
         if k < n and cand[k] == track2d[i]:
             keep[k] = False
@@ -164,6 +196,91 @@ def new_tracks(frame, track2d, start, stop, fresh_from, seen):
         if k < n and cand[k] == seen[q]:
             keep[k] = False
     return cand[keep]
+
+
+@njit(cache=True, error_model="numpy")
+def new_near(C, ids, last_obs, track_id, lf, lx, lv, frame, track2d, camera, ubox, start, stop, fresh_from, seen, P, n,
+             max_gap, gate, ends_apply):  # (track_id: unused, the ends as MotionLinker keeps them)
+    """:class:`~gymtrack.tracking.motion_link.MotionLinker`'s step up to its first decision, in
+    one call: the window's new 2D tracks (:func:`new_tracks`) and whether any lies within the
+    gate (``D <= gate``) of the first round's costs (:func:`link_costs` of :func:`old_entries`
+    of the ends; tested only when there are new tracks and ``ends_apply``: the ends are the
+    previous window's)."""
+    new = new_tracks(frame, track2d, start, stop, fresh_from, seen)
+    near = False
+    if len(new) and ends_apply:
+        near = _first_near(C, ids, last_obs, lf, lx, lv, frame, track2d, camera, ubox, new, P, n, max_gap, gate)
+    return new, near
+
+
+@njit(cache=True, error_model="numpy")
+def _first_near(C, ids, last_obs, lf, lx, lv, frame, track2d, camera, ubox, new, P, n, max_gap, gate):
+    """Whether the first round (:func:`link_costs` of :func:`old_entries` of the ends) has a cost
+    within ``gate``, without building its (L, T) matrix:
+    only the old entries (:func:`old_entries`' choice: the first (tracklet, view) of each 2D
+    track) of a view a new track is in are costed, with :func:`link_costs`' arithmetic."""
+    N, T = len(frame), len(new)
+    fr = np.zeros((T, n), np.int64)
+    bx = np.full((T, n, 4), _NAN)
+    cnt = np.zeros(T, np.int64)
+    cam_n = np.zeros(T, np.int64)
+    for i in range(N):  # the first n boxes of each new track (rows are in frame order)
+        j = np.searchsorted(new, track2d[i])
+        if j < T and new[j] == track2d[i]:
+            cam_n[j] = camera[i]
+            k = cnt[j]
+            if k < n:
+                fr[j, k] = frame[i]
+                for q in range(4):
+                    bx[j, k, q] = ubox[i, q]
+                cnt[j] = k + 1
+    flat, lo = ids.ravel(), last_obs.ravel()
+    for e in range(flat.size):
+        c, m, t = e % C, e // C, flat[e]
+        wanted = False
+        for j in range(T):
+            if cam_n[j] == c and cnt[j] > 0:
+                wanted = True
+        if not wanted:
+            continue
+        last = lo[e]
+        if t >= 0:
+            first = True  # one entry per 2D track: its first (tracklet, view)
+            for e2 in range(e):
+                if flat[e2] == t:
+                    first = False
+                    break
+            if not first:
+                continue
+            for i in range(N):  # the old track's last box: in the rows still held
+                if track2d[i] == t and frame[i] > last:
+                    last = frame[i]
+        for j in range(T):
+            if cam_n[j] != c or cnt[j] == 0:
+                continue
+            gap = fr[j, 0] - last
+            if t >= 0 and (gap < 1 or gap > max_gap + 1):
+                continue
+            s = 0.0
+            bad = False
+            for k in range(cnt[j]):  # (link_costs' arithmetic, in its order)
+                dt = float(fr[j, k] - lf[m])
+                X0 = lx[m, 0] + lv[m, 0] * dt
+                X1 = lx[m, 1] + lv[m, 1] * dt
+                X2 = lx[m, 2] + lv[m, 2] * dt
+                h0 = (P[c, 0, 0] * X0 + P[c, 0, 2] * X2) + P[c, 0, 1] * X1 + P[c, 0, 3]
+                h1 = (P[c, 1, 0] * X0 + P[c, 1, 2] * X2) + P[c, 1, 1] * X1 + P[c, 1, 3]
+                h2 = (P[c, 2, 0] * X0 + P[c, 2, 2] * X2) + P[c, 2, 1] * X1 + P[c, 2, 3]
+                o0 = (h0 / h2 - bx[j, k, 0]) / bx[j, k, 2]
+                o1 = (h1 / h2 - bx[j, k, 1]) / bx[j, k, 3]
+                d = np.sqrt(o0 * o0 + o1 * o1)
+                if not h2 > 0 or np.isnan(d):
+                    bad = True
+                    break
+                s += d
+            if not bad and s / cnt[j] <= gate:
+                return True
+    return False
 
 
 @njit(cache=True, error_model="numpy")
@@ -220,11 +337,26 @@ def keep_views(members, ids, track_id, prev_track_id, prev_ids):
 
 
 @njit(cache=True, error_model="numpy")
-def first_costs(C, ids, last_obs, track_id, lf, lx, lv, frame, track2d, camera, ubox, new, P, n, max_gap):
-    """:func:`link_costs` of the first round straight from the previous window's ends
-    (:func:`old_entries`' arguments): one call where, as usually, nothing links."""
-    cam_o, t_o, last_o, _, f, x, v = old_entries(C, ids, last_obs, track_id, lf, lx, lv)
-    return link_costs(frame, track2d, camera, ubox, new, cam_o, t_o, last_o, f, x, v, P, n, max_gap)
+def remember(xyz, valid, start, max_speed, members, observed, seg_start, track2d, track_id, prev_track_id, prev_ids):
+    """What :meth:`~gymtrack.tracking.motion_link.MotionLinker.remember` keeps of a linked window,
+    in one call: :func:`tracklet_ends` of xyz (M, W, 3), valid (M, W); per (tracklet, view) of
+    ``members`` (M, C) its segment's 2D track (``track2d`` (K,)) and :func:`last_observed` frame
+    (``observed`` (K, W) from ``seg_start``; K = 0: none), a view without a member the 2D track
+    :func:`keep_views` gives (``prev_track_id`` (P,), ``prev_ids`` (P, C)); and a copy of
+    ``track_id`` (M,). Returns lf, lx, lv, last_obs, ids, track_id."""
+    M, C = members.shape
+    lf, lx, lv = tracklet_ends(xyz, valid, start, max_speed)
+    if len(track2d):
+        last_obs = last_observed(members, observed, seg_start)
+        ids = np.empty((M, C), np.int64)
+        for m in range(M):
+            for c in range(C):
+                ids[m, c] = track2d[max(members[m, c], 0)]
+    else:
+        last_obs = np.full((M, C), -(1 << 40), np.int64)
+        ids = np.zeros((M, C), np.int64)
+    ids = keep_views(members, ids, track_id, prev_track_id, prev_ids)
+    return lf, lx, lv, last_obs, ids, track_id.copy()
 
 
 def warm_up() -> None:
@@ -237,8 +369,10 @@ def warm_up() -> None:
     P = np.zeros((1, 3, 4))
     P[0, 0, 0] = P[0, 1, 1] = P[0, 2, 2] = P[0, 2, 3] = 1.0
     new_tracks(i1, i1, 0, 4, 2, i1)
+    remember(xyz, valid, 0, 0.5, np.zeros((1, 2), np.int64), np.ones((1, 4), bool), 0, i1, i1, i1,
+             np.zeros((1, 2), np.int64))
     keep_views(np.full((1, 2), -1, np.int64), np.zeros((1, 2), np.int64), i1, i1, np.zeros((1, 2), np.int64))
     old_entries(2, np.zeros((1, 2), np.int64), np.zeros((1, 2), np.int64), i1, i1, np.zeros((1, 3)), np.zeros((1, 3)))
-    first_costs(2, np.zeros((1, 2), np.int64), np.zeros((1, 2), np.int64), i1, i1, np.zeros((1, 3)), np.zeros((1, 3)),
-                i1, i1, i1, np.ones((1, 4)), i1, P, 3, 5)
+    new_near(2, np.zeros((1, 2), np.int64), np.zeros((1, 2), np.int64), i1, i1, np.zeros((1, 3)), np.zeros((1, 3)),
+             i1, i1, i1, np.ones((1, 4)), 0, 4, 2, i1, P, 3, 5, 1.0, True)
     link_costs(i1, i1, i1, np.ones((1, 4)), i1, i1, i1 - 1, i1, i1, np.zeros((1, 3)), np.zeros((1, 3)), P, 3, 5)

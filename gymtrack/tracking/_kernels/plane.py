@@ -18,6 +18,7 @@ from numba import njit
 from ...geometry.primitives import RAY_OK, plane_offset, ray_direction, ray_plane
 from ..types import INTERPOLATED, PLANE
 from .clustering import complete_linkage
+from .reconstruct import outliers_by_place
 from .sample import sample
 
 _NAN = np.nan
@@ -282,6 +283,72 @@ def plane_stage(box, observed, camera, rig, planes, constraints, rules):
     return fuse_on_planes(X, ok, Dp, labels, camera, observed, n_cameras, single, rules)
 
 
+@njit(cache=True, error_model="numpy")
+def plane_split(box, observed, camera, track2d, to_plane, D2, cut, person, prev_2d, prev_seen, rig, planes, rules,
+                tspace, max_speed, pspace):
+    """``cascade+``'s plane stage for the segments ``to_plane`` (int64 indices into the window's
+    box (K, W, 4), observed (K, W), camera, track2d (K,)) in one call
+    (:func:`gymtrack.tracking.plane_fallback.plane_split`): Eq. 2's separations (``D2`` (K, K)
+    >= ``cut``; (0, 0): none) and oracle ids (``person`` (K,); (0,): none) as constraints, the
+    one-view continuation (a 2D track among ``prev_2d`` or not among ``prev_seen``),
+    :func:`plane_stage`, Eq. 4 by place (``tspace``), members to the window's segments, and
+    one-view tracklets only inside ``pspace`` (any valid point outside drops them).
+    Returns xyz, top_z, bottom_z, valid, source, n_views, members and (3,) int64 counts:
+    tracklets fused, outliers, one-view tracklets outside."""
+    K = len(to_plane)
+    apart = NO_APART
+    if D2.shape[0] > 0:  # Eq. 2 says different people: never fused on the plane
+        apart = np.empty((K, K), np.bool_)
+        for i in range(K):
+            for j in range(K):
+                apart[i, j] = D2[to_plane[i], to_plane[j]] >= cut
+    group = NO_GROUP
+    if person.shape[0] > 0:
+        group = person[to_plane]
+    single = np.empty(K, np.bool_)
+    for i in range(K):
+        t = track2d[to_plane[i]]
+        member, seen = False, False
+        for q in range(len(prev_2d)):
+            if prev_2d[q] == t:
+                member = True
+                break
+        for q in range(len(prev_seen)):
+            if prev_seen[q] == t:
+                seen = True
+                break
+        single[i] = member or not seen
+    xyz, top, bottom, valid, source, n_views, members = plane_stage(
+        box[to_plane], observed[to_plane], camera[to_plane], rig, planes, PlaneConstraints(group, apart, single), rules)
+    M, W = valid.shape
+    stats = np.zeros(3, np.int64)
+    stats[0] = M
+    keep = np.ones(M, np.bool_)
+    if M > 0:
+        keep = ~outliers_by_place(xyz, valid, tspace, max_speed)
+    for m in range(M):
+        stats[1] += not keep[m]
+        if not keep[m]:
+            continue
+        n = 0
+        for c in range(members.shape[1]):
+            if members[m, c] >= 0:
+                n += 1
+                members[m, c] = to_plane[members[m, c]]
+        if n == 1:  # one view alone only inside S_perf (NaN: outside)
+            for t in range(W):
+                x, y = xyz[m, t, 0], xyz[m, t, 1]
+                if valid[m, t] and not (x >= pspace[0] and x <= pspace[3] and y >= pspace[1] and y <= pspace[4]):
+                    keep[m] = False
+                    stats[2] += 1
+                    break
+    if stats[1] + stats[2] > 0:  # (integer takes of the kept rows)
+        rows = np.flatnonzero(keep)
+        xyz, top, bottom, valid, source, n_views, members = (
+            xyz[rows], top[rows], bottom[rows], valid[rows], source[rows], n_views[rows], members[rows])
+    return xyz, top, bottom, valid, source, n_views, members, stats
+
+
 def warm_up() -> None:
     """Compile (or load) the stage kernel: the sample person's two views fused on the plane,
     with and without constraints."""
@@ -293,3 +360,7 @@ def warm_up() -> None:
     for constraints in (PlaneConstraints(NO_GROUP, NO_APART, NO_SINGLE),
                         PlaneConstraints(np.zeros(2, np.int64), np.zeros((2, 2), bool), np.ones(2, bool))):
         plane_stage(s.box, s.observed, s.camera, s.rig.arrays, planes, constraints, rules)
+    i2, space = np.arange(2, dtype=np.int64), np.array([-1.0, -1.0, 0.0, 1.0, 1.0, 3.0])
+    for D2, person in ((np.zeros((0, 0)), NO_GROUP), (np.zeros((2, 2)), i2)):
+        plane_split(s.box, s.observed, s.camera, i2, i2, D2, 1.0, person, i2, i2, s.rig.arrays, planes, rules, space, 0.5,
+                    space)

@@ -4,7 +4,8 @@
 and frame of a window, views-major, for Eq. 3 (:func:`gymtrack.geometry.primitives.triangulate_points`,
 the same solver the public :func:`gymtrack.geometry.triangulation.triangulate` runs);
 :func:`outliers` is Eq. 4 (:func:`outliers_by_place`, ``cascade+``'s: the space test on the
-mean position). Numpy references: ``tests/reference/reconstruct.py``.
+mean position); :func:`opposite_clusters` and :func:`fallback_segments`: the cascade's (III-C)
+two-view opposite clusters and the segments it hands the plane. Numpy references: ``tests/reference/reconstruct.py``.
 """
 
 from __future__ import annotations
@@ -117,6 +118,46 @@ def outliers_by_place(xyz, valid, space, max_speed):
     return bad
 
 
+@njit(cache=True)
+def opposite_clusters(members, opposite):
+    """:func:`gymtrack.tracking.reconstruct.opposite_clusters`: members (M, C) int64, opposite
+    (C, C) bool -> (M,) bool, clusters of exactly two views ``a``, ``b`` with ``opposite[a, b]``
+    or ``opposite[b, a]``."""
+    M, C = members.shape
+    out = np.zeros(M, np.bool_)
+    for m in range(M):
+        a, b, n = -1, -1, 0
+        for c in range(C):
+            if members[m, c] >= 0:
+                n += 1
+                if a < 0:
+                    a = c
+                else:
+                    b = c
+        out[m] = n == 2 and (opposite[a, b] or opposite[b, a])
+    return out
+
+
+@njit(cache=True)
+def fallback_segments(members, fallback):
+    """The segments (sorted) of the clusters ``fallback`` (M,) bool; members (M, C) int64."""
+    M, C = members.shape
+    n = 0
+    for m in range(M):
+        if fallback[m]:
+            for c in range(C):
+                n += members[m, c] >= 0
+    out = np.empty(n, np.int64)
+    n = 0
+    for m in range(M):
+        if fallback[m]:
+            for c in range(C):
+                if members[m, c] >= 0:
+                    out[n] = members[m, c]
+                    n += 1
+    return np.sort(out)
+
+
 def warm_up() -> None:
     """Compile (or load) the kernels: the sample person triangulated from both views."""
     s = sample()
@@ -125,3 +166,6 @@ def warm_up() -> None:
     xyz = np.ascontiguousarray(X.reshape(3, 3, 1, -1)[:, 0].transpose(1, 2, 0))
     outliers(xyz, np.isfinite(xyz).all(axis=2), np.array([-5.0, -5.0, 0.0, 5.0, 5.0, 3.0]), 0.5)
     outliers_by_place(xyz, np.isfinite(xyz).all(axis=2), np.array([-5.0, -5.0, 0.0, 5.0, 5.0, 3.0]), 0.5)
+    members = np.array([[0, 1], [-1, 2]], np.int64)
+    opposite_clusters(members, np.ones((2, 2), bool))
+    fallback_segments(members, np.ones(2, bool))
