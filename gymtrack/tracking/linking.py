@@ -237,18 +237,6 @@ class WindowLinker:
         members of the previous window's 3D tracklets, or new in this window (a view's track broke)."""
         return member(track2d, self.prev_2d) | ~member(track2d, self.prev_seen)
 
-    def owners(self, track2d: np.ndarray) -> np.ndarray:
-        """(n,) the previous window's 3D track each of the 2D tracks ``track2d`` (n,) was a member
-        of (-1: none, or not ``by_2d``)."""
-        prev, own = self.prev_2d, self.prev_owner
-        out = np.full(len(track2d), -1, np.int64)
-        if len(prev) and len(own) == len(prev):
-            order = np.argsort(prev)
-            at = np.minimum(np.searchsorted(prev[order], track2d), len(prev) - 1)
-            hit = prev[order][at] == track2d
-            out[hit] = own[order][at[hit]]
-        return out
-
     def step(self, cur: WindowTracklets3D, track2d: np.ndarray, solo: np.ndarray,
              floor: np.ndarray | None = None) -> WindowTracklets3D:
         """Link one window's 3D tracklets to the tracks.
