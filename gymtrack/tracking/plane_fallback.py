@@ -19,9 +19,10 @@ views best.
 Shared frames are frames where both segments were observed (as for Eq. 2, see
 :mod:`.clustering`); the fused tracklet covers every frame where a member is valid.
 
-``cascade+`` (beyond the paper, issue 12) runs this stage through :func:`plane_split`: the same
-stage with its tracker-side steps (Eq. 2's separations, the one-view continuation, Eq. 4 by
-place, the one-view tracklets' performance-space test) in the same compiled call.
+The tracker runs this stage through :func:`plane_split`: the same stage with its tracker-side
+steps (Eq. 2's separations, the one-view continuation, Eq. 4; ``cascade+``, beyond the paper,
+issue 12: Eq. 4 by place and the one-view tracklets' performance-space test) in the same
+compiled call.
 
 Speed: a window hands this stage a few segments, where numpy's per-call overhead dominated,
 so :func:`plane_stage` is one compiled call (:func:`._kernels.plane.plane_stage`: candidates of
@@ -92,6 +93,9 @@ def plane_stage(
 _NO_D2 = np.zeros((0, 0))
 
 
+_NO_SPACE = np.zeros(0)  # plane_split without the one-view S_perf test (the paper's cascade)
+
+
 @lru_cache(maxsize=8)
 def _rules(threshold: float) -> PlaneRules:  # (one per threshold: built once, not per window)
     return PlaneRules(MIN_COS, threshold, PLANE, INTERPOLATED)
@@ -99,24 +103,24 @@ def _rules(threshold: float) -> PlaneRules:  # (one per threshold: built once, n
 
 def plane_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | None, rig: RigArrays,
                 planes: PlaneArrays, params, oracle: bool, prev_2d: np.ndarray, prev_seen: np.ndarray,
-                tracking_space: np.ndarray, performance_space: np.ndarray, counts: dict) -> WindowTracklets3D | None:
-    """``cascade+``'s plane stage for the segments ``to_plane`` (indices into ``segs``; the
-    tracker's hook, beyond the paper: issue 12), one kernel call
-    (:func:`._kernels.plane.plane_split`) doing what the cascade's tracker does around
+                tracking_space: np.ndarray, performance_space: np.ndarray | None, counts: dict,
+                by_place: bool = True) -> WindowTracklets3D | None:
+    """The tracker's plane stage for the segments ``to_plane`` (indices into ``segs``), one
+    kernel call (:func:`._kernels.plane.plane_split`) doing what the tracker did around
     :func:`plane_stage`: segments Eq. 2 separates (``D2 >= cluster_2d``) or an oracle's ids
     (``oracle``: ``track2d // C``) tell apart are not fused; a view left alone may continue its 2D
     track's 3D track when that 2D track was a member of the previous window's tracklets
-    (``prev_2d``) or is new (not among ``prev_seen``); Eq. 4 by place in ``tracking_space``
-    (:func:`.reconstruct.outliers_by_place`); a one-view tracklet is kept only while its points
-    stay inside ``performance_space`` (:func:`.floor.solo_inside`). Returns the plane tracklets
-    (``members`` index ``segs``), None when the stage fused nothing; counts as the cascade's
-    path counts them."""
+    (``prev_2d``) or is new (not among ``prev_seen``); Eq. 4 in ``tracking_space``
+    (:func:`.reconstruct.outliers`; ``by_place``, ``cascade+``: :func:`.reconstruct.outliers_by_place`);
+    ``cascade+`` (``performance_space`` given): a one-view tracklet is kept only while its points
+    stay inside it (:func:`.floor.solo_inside`). Returns the plane tracklets (``members`` index
+    ``segs``), None when the stage fused nothing; counts as the numpy path counts them."""
     C = len(rig.K)
     xyz, top, bottom, valid, source, n_views, members, stats = plane_split_kernel(
         segs.box, segs.observed, segs.camera, segs.track2d, to_plane, _NO_D2 if D2 is None else D2,
         float(params.cluster_2d), segs.track2d // C if oracle else NO_GROUP, prev_2d, prev_seen, rig, planes,
-        _rules(float(params.cluster_plane)), tracking_space, float(params.max_speed),
-        performance_space)
+        _rules(float(params.cluster_plane)), tracking_space, float(params.max_speed), bool(by_place),
+        _NO_SPACE if performance_space is None else performance_space)
     fused, n_outliers, n_outside = stats.tolist()
     counts["segments_to_plane"] += len(to_plane)
     if not fused:

@@ -352,10 +352,10 @@ class Tracker:
                                           self.counts, self._floor_only)
         if not len(to_plane):
             return None, floor
-        if self.plus and self.fusion is None:  # the same steps as below in one compiled call
+        if self.fusion is None:  # the same steps as below in one compiled call
             return plane_split(segs, to_plane, D2, self.rig.arrays, self.plane_arrays, p, self.association == "oracle",
                                self.linker.prev_2d, self.linker.prev_seen, self.space,
-                               self.perf_space, self.counts), floor
+                               self.perf_space if self.plus else None, self.counts, by_place=self.plus), floor
         sub = segs.subset(to_plane)
         plane_labels = None
         if self.association == "oracle":

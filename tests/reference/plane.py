@@ -210,11 +210,12 @@ def plane_stage_numpy(segs, rig, planes, threshold, labels=None, apart=None, sin
 
 
 def plane_split_numpy(segs, to_plane, D2, rig, planes, params, oracle, prev_2d, prev_seen, tracking_space,
-                      performance_space, counts):
-    """cascade+'s plane stage as the tracker ran it around the stage (the cascade's path):
-    segments taken out, Eq. 2's separations, oracle ids, the one-view continuation, the stage,
-    Eq. 4 by place, members to the window's segments, one-view tracklets only inside S_perf."""
-    from reference.reconstruct import outliers_by_place_numpy
+                      performance_space, counts, by_place=True):
+    """The plane stage as the tracker ran it around the stage: segments taken out, Eq. 2's
+    separations, oracle ids, the one-view continuation, the stage, Eq. 4 (cascade+: by place),
+    members to the window's segments, one-view tracklets only inside S_perf (cascade+: when
+    ``performance_space`` is given)."""
+    from reference.reconstruct import outliers_by_place_numpy, outliers_numpy
 
     sub = segs.subset(to_plane)
     labels = np.unique(sub.track2d // len(rig), return_inverse=True)[1] if oracle else None
@@ -224,11 +225,14 @@ def plane_split_numpy(segs, to_plane, D2, rig, planes, params, oracle, prev_2d, 
     counts["segments_to_plane"] += len(to_plane)
     if not len(pl):
         return None
-    bad = outliers_by_place_numpy(pl.xyz, pl.valid, tracking_space, params.max_speed)
+    bad = (outliers_by_place_numpy if by_place else outliers_numpy)(pl.xyz, pl.valid, tracking_space, params.max_speed)
     if bad.any():
         counts["tracklets_outliers"] += int(bad.sum())
         pl = pl.subset(~bad)
     pl = pl.with_members(np.where(pl.members >= 0, to_plane[np.maximum(pl.members, 0)], -1))
+    if performance_space is None:  # the paper's cascade: no one-view S_perf test
+        counts["plane_tracklets"] += len(pl)
+        return pl
     s = performance_space
     with np.errstate(invalid="ignore"):
         x, y = pl.xyz[..., 0], pl.xyz[..., 1]
