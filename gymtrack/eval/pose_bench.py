@@ -3,7 +3,7 @@
 Paper: Fig. 7 shows how a track biased by two opposite views misdirects the 3D pose; Section
 III-D says the expanded boxes ``b_buf`` are what the pose model sees. Here that is measured: for
 every method whose boxes the pose model can run on (:data:`POSE_METHODS`: cascade,
-triangulation, mvpt, oracle), the simulated top-down pose model
+triangulation, mvpt, oracle, and cascade+, the default mode, beyond the paper), the simulated top-down pose model
 (:func:`gymtrack.simulate.pose_model.simulate_pose_model`) runs on the method's ``b_buf`` boxes,
 the pose stage lifts the target (``robust``), and the result is compared with the simulator's
 ``gt/keypoints_3d.csv`` (:mod:`gymtrack.eval.pose_metrics`, the target's performing frames). On
@@ -44,7 +44,7 @@ from .render import markdown_table
 __all__ = ["POSE_METHODS", "LIFTS", "PARTS", "COMPARISONS", "PoseGroundTruth", "pose_columns", "add_common_columns",
            "pooled_common", "pose_tables", "pose_claims", "pose_markdown"]
 
-POSE_METHODS: tuple[str, ...] = ("cascade", "triangulation", "mvpt", "oracle")
+POSE_METHODS: tuple[str, ...] = ("cascade", "triangulation", "mvpt", "oracle", "cascade+")
 #: lifting variants: column name -> (lift method, plane anchoring)
 LIFTS: dict[str, tuple[str, bool]] = {"robust": ("robust", True), "dlt": ("dlt", False), "noplane": ("robust", False)}
 LIFT_LABELS = {"robust": "robust", "dlt": "dlt (Eq. 3)", "noplane": "robust, no plane anchoring"}
