@@ -31,6 +31,7 @@ kernels older than any of those files, so that an edit there is never run as sta
 
 from __future__ import annotations
 
+import gc
 from pathlib import Path
 
 from ...geometry import arrays, primitives
@@ -68,4 +69,7 @@ def warm_up() -> None:
     for module in (single_view, windows, clustering, reconstruct, linking, motion_link, exclusion, records, plane, floor, fusion, target,
                    primitives):
         module.warm_up()
+    # a full collection now, not during the first tracking call: after a first compile Python's
+    # collector has the compiler's many objects to walk (a demo's first mode ran at 1/3 speed)
+    gc.collect()
     _WARM = True
