@@ -73,6 +73,51 @@ def last_observed(members, observed, seg_start):
 
 
 @njit(cache=True, error_model="numpy")
+def _first_boxes(new, frame, track2d, camera, ubox, n):
+    """The first ``n`` boxes of each new track (sorted ids ``new`` (T,)) among the rows (frame
+    order): their frames fr (T, n), undistorted boxes bx (T, n, 4), count cnt (T,) and view cam_n (T,)."""
+    T = len(new)
+    fr = np.zeros((T, n), np.int64)
+    bx = np.full((T, n, 4), _NAN)
+    cnt = np.zeros(T, np.int64)
+    cam_n = np.zeros(T, np.int64)
+    for i in range(len(frame)):
+        j = np.searchsorted(new, track2d[i])
+        if j < T and new[j] == track2d[i]:
+            cam_n[j] = camera[i]
+            k = cnt[j]
+            if k < n:
+                fr[j, k] = frame[i]
+                for q in range(4):
+                    bx[j, k, q] = ubox[i, q]
+                cnt[j] = k + 1
+    return fr, bx, cnt, cam_n
+
+
+@njit(cache=True, error_model="numpy")
+def _offset(fr, bx, cnt, j, lf, lx, lv, m, P, c):
+    """The mean offset of new track j's first boxes from the projection into view c of old end
+    m's constant-velocity prediction, in box widths / heights; NaN behind the camera."""
+    s = 0.0
+    for k in range(cnt[j]):
+        dt = float(fr[j, k] - lf[m])
+        X0 = lx[m, 0] + lv[m, 0] * dt
+        X1 = lx[m, 1] + lv[m, 1] * dt
+        X2 = lx[m, 2] + lv[m, 2] * dt
+        # (p0 + p2) + p1: the order numpy's einsum sums three products in (the reference's bits)
+        h0 = (P[c, 0, 0] * X0 + P[c, 0, 2] * X2) + P[c, 0, 1] * X1 + P[c, 0, 3]
+        h1 = (P[c, 1, 0] * X0 + P[c, 1, 2] * X2) + P[c, 1, 1] * X1 + P[c, 1, 3]
+        h2 = (P[c, 2, 0] * X0 + P[c, 2, 2] * X2) + P[c, 2, 1] * X1 + P[c, 2, 3]
+        o0 = (h0 / h2 - bx[j, k, 0]) / bx[j, k, 2]
+        o1 = (h1 / h2 - bx[j, k, 1]) / bx[j, k, 3]
+        d = np.sqrt(o0 * o0 + o1 * o1)
+        if not h2 > 0 or np.isnan(d):
+            return _NAN
+        s += d
+    return s / cnt[j]
+
+
+@njit(cache=True, error_model="numpy")
 def link_costs(frame, track2d, camera, ubox, new, cam_o, t_o, last_o, lf, lx, lv, P, n, max_gap):
     """One round of the motion link. Rows frame, track2d, camera (N,), ubox (N, 4) centre form, in
     frame order; new (T,) sorted new 2D track ids; per old entry (L,): its view cam_o, 2D track
@@ -87,20 +132,7 @@ def link_costs(frame, track2d, camera, ubox, new, cam_o, t_o, last_o, lf, lx, lv
         for l in range(L):
             if t_o[l] >= 0 and t_o[l] == track2d[i] and frame[i] > last[l]:
                 last[l] = frame[i]
-    fr = np.zeros((T, n), np.int64)
-    bx = np.full((T, n, 4), _NAN)
-    cnt = np.zeros(T, np.int64)
-    cam_n = np.zeros(T, np.int64)
-    for i in range(N):  # the first n boxes of each new track (rows are in frame order)
-        j = np.searchsorted(new, track2d[i])
-        if j < T and new[j] == track2d[i]:
-            cam_n[j] = camera[i]
-            k = cnt[j]
-            if k < n:
-                fr[j, k] = frame[i]
-                for q in range(4):
-                    bx[j, k, q] = ubox[i, q]
-                cnt[j] = k + 1
+    fr, bx, cnt, cam_n = _first_boxes(new, frame, track2d, camera, ubox, n)
     D = np.full((L, T), _NAN)
     for l in range(L):
         c = cam_o[l]
@@ -110,26 +142,7 @@ def link_costs(frame, track2d, camera, ubox, new, cam_o, t_o, last_o, lf, lx, lv
             gap = fr[j, 0] - last[l]
             if t_o[l] >= 0 and (gap < 1 or gap > max_gap + 1):
                 continue
-            s = 0.0
-            bad = False
-            for k in range(cnt[j]):
-                dt = float(fr[j, k] - lf[l])
-                X0 = lx[l, 0] + lv[l, 0] * dt
-                X1 = lx[l, 1] + lv[l, 1] * dt
-                X2 = lx[l, 2] + lv[l, 2] * dt
-                # (p0 + p2) + p1: the order numpy's einsum sums three products in (the reference's bits)
-                h0 = (P[c, 0, 0] * X0 + P[c, 0, 2] * X2) + P[c, 0, 1] * X1 + P[c, 0, 3]
-                h1 = (P[c, 1, 0] * X0 + P[c, 1, 2] * X2) + P[c, 1, 1] * X1 + P[c, 1, 3]
-                h2 = (P[c, 2, 0] * X0 + P[c, 2, 2] * X2) + P[c, 2, 1] * X1 + P[c, 2, 3]
-                o0 = (h0 / h2 - bx[j, k, 0]) / bx[j, k, 2]
-                o1 = (h1 / h2 - bx[j, k, 1]) / bx[j, k, 3]
-                d = np.sqrt(o0 * o0 + o1 * o1)
-                if not h2 > 0 or np.isnan(d):
-                    bad = True
-                    break
-                s += d
-            if not bad:
-                D[l, j] = s / cnt[j]
+            D[l, j] = _offset(fr, bx, cnt, j, lf, lx, lv, l, P, c)
     return D
 
 
@@ -220,20 +233,7 @@ def _first_near(C, ids, last_obs, lf, lx, lv, frame, track2d, camera, ubox, new,
     only the old entries (:func:`old_entries`' choice: the first (tracklet, view) of each 2D
     track) of a view a new track is in are costed, with :func:`link_costs`' arithmetic."""
     N, T = len(frame), len(new)
-    fr = np.zeros((T, n), np.int64)
-    bx = np.full((T, n, 4), _NAN)
-    cnt = np.zeros(T, np.int64)
-    cam_n = np.zeros(T, np.int64)
-    for i in range(N):  # the first n boxes of each new track (rows are in frame order)
-        j = np.searchsorted(new, track2d[i])
-        if j < T and new[j] == track2d[i]:
-            cam_n[j] = camera[i]
-            k = cnt[j]
-            if k < n:
-                fr[j, k] = frame[i]
-                for q in range(4):
-                    bx[j, k, q] = ubox[i, q]
-                cnt[j] = k + 1
+    fr, bx, cnt, cam_n = _first_boxes(new, frame, track2d, camera, ubox, n)
     flat, lo = ids.ravel(), last_obs.ravel()
     for e in range(flat.size):
         c, m, t = e % C, e // C, flat[e]
@@ -261,24 +261,7 @@ def _first_near(C, ids, last_obs, lf, lx, lv, frame, track2d, camera, ubox, new,
             gap = fr[j, 0] - last
             if t >= 0 and (gap < 1 or gap > max_gap + 1):
                 continue
-            s = 0.0
-            bad = False
-            for k in range(cnt[j]):  # (link_costs' arithmetic, in its order)
-                dt = float(fr[j, k] - lf[m])
-                X0 = lx[m, 0] + lv[m, 0] * dt
-                X1 = lx[m, 1] + lv[m, 1] * dt
-                X2 = lx[m, 2] + lv[m, 2] * dt
-                h0 = (P[c, 0, 0] * X0 + P[c, 0, 2] * X2) + P[c, 0, 1] * X1 + P[c, 0, 3]
-                h1 = (P[c, 1, 0] * X0 + P[c, 1, 2] * X2) + P[c, 1, 1] * X1 + P[c, 1, 3]
-                h2 = (P[c, 2, 0] * X0 + P[c, 2, 2] * X2) + P[c, 2, 1] * X1 + P[c, 2, 3]
-                o0 = (h0 / h2 - bx[j, k, 0]) / bx[j, k, 2]
-                o1 = (h1 / h2 - bx[j, k, 1]) / bx[j, k, 3]
-                d = np.sqrt(o0 * o0 + o1 * o1)
-                if not h2 > 0 or np.isnan(d):
-                    bad = True
-                    break
-                s += d
-            if not bad and s / cnt[j] <= gate:
+            if _offset(fr, bx, cnt, j, lf, lx, lv, m, P, c) <= gate:  # (NaN compares False)
                 return True
     return False
 
