@@ -92,7 +92,7 @@ def opposite_clusters(members: np.ndarray, opposite: np.ndarray) -> np.ndarray:
 def fallback_segments(members: np.ndarray, fallback: np.ndarray) -> np.ndarray:
     """The cascade's (III-C) segments for the plane: those of the clusters ``fallback`` (M,) bool
     (members (M, C), -1: none), sorted. One compiled pass."""
-    return kernels.fallback_segments(np.ascontiguousarray(members, np.int64), np.ascontiguousarray(fallback, bool))
+    return kernels.segments_of(np.ascontiguousarray(members, np.int64), np.ascontiguousarray(fallback, bool))
 
 
 def outliers(xyz: np.ndarray, valid: np.ndarray, space: np.ndarray, max_speed: float) -> np.ndarray:

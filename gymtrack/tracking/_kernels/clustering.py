@@ -100,6 +100,29 @@ def number_by_first_member(owner):
     return labels
 
 
+NO_GROUP = np.zeros(0, np.int64)  #: no person ids (the method's own association)
+NO_APART = np.zeros((0, 0), bool)  #: no pairs known apart
+
+
+@njit(cache=True)
+def constraints(idx, D2, cut, person):
+    """Algorithm 1's constraints for the segments ``idx`` (K,) int64 of a window: ``apart`` (K, K)
+    bool, pairs Eq. 2 says are different people (``D2`` (N, N) >= ``cut``; (0, 0): none, gives
+    :data:`NO_APART`), and ``group`` (K,) their person ids (``person`` (N,); (0,): none, gives
+    :data:`NO_GROUP`)."""
+    K = len(idx)
+    apart = NO_APART
+    if D2.shape[0] > 0:
+        apart = np.empty((K, K), np.bool_)
+        for i in range(K):
+            for j in range(K):
+                apart[i, j] = D2[idx[i], idx[j]] >= cut
+    group = NO_GROUP
+    if person.shape[0] > 0:
+        group = person[idx]
+    return apart, group
+
+
 @njit(cache=True)
 def complete_linkage(D, threshold):
     """Algorithm 1, :func:`gymtrack.tracking.clustering.complete_linkage` (the same reciprocal-nearest-neighbour

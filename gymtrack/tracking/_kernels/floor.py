@@ -23,8 +23,8 @@ from numba import njit
 
 from ...geometry.primitives import plane_offset, ray_direction, ray_plane
 from ..types import INTERPOLATED, PLANE
-from .clustering import complete_linkage
-from .reconstruct import outliers_by_place
+from .clustering import NO_APART, NO_GROUP, complete_linkage, constraints
+from .reconstruct import outliers_by_place, segments_of
 from .sample import sample
 
 _NAN = np.nan
@@ -42,10 +42,6 @@ class FloorRules(NamedTuple):
     threshold: float
     code: int
     interpolated: int
-
-
-NO_GROUP = np.zeros(0, np.int64)
-NO_APART = np.zeros((0, 0), bool)
 
 
 @njit(cache=True, error_model="numpy")
@@ -233,15 +229,7 @@ def floor_split(box, valid, observed, camera, to_plane, floor_only, D2, cut, per
     idx = np.empty(K, np.int64)
     idx[:n_plane] = to_plane
     idx[n_plane:] = floor_only
-    apart = NO_APART
-    if D2.shape[0] > 0:  # Eq. 2 says different people: never one on the floor
-        apart = np.empty((K, K), np.bool_)
-        for i in range(K):
-            for j in range(K):
-                apart[i, j] = D2[idx[i], idx[j]] >= cut
-    group = NO_GROUP
-    if person.shape[0] > 0:
-        group = person[idx]
+    apart, group = constraints(idx, D2, cut, person)  # Eq. 2 says different people: never one on the floor
     xyz, top, bottom, fvalid, source, n_views, members, used = floor_stage(
         box[idx], valid[idx], observed[idx], camera[idx], rig, space, apart, group, rules)
     stats = np.zeros(3, np.int64)
@@ -404,15 +392,7 @@ def ghost_split(members, valid3, bottom_z, xyz, box, valid, observed, camera, tr
                 ghost[m] = False
                 stats[2] += 1
         stats[3] -= stats[2]
-    pair = np.empty(2 * stats[3], np.int64)
-    n = 0
-    for m in range(M):
-        if ghost[m]:
-            for c in range(C):
-                if members[m, c] >= 0:
-                    pair[n] = members[m, c]
-                    n += 1
-    return bad | ghost, np.sort(pair[:n]), stats
+    return bad | ghost, segments_of(members, ghost), stats
 
 
 def warm_up() -> None:

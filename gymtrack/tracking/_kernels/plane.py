@@ -17,7 +17,7 @@ from numba import njit
 
 from ...geometry.primitives import RAY_OK, plane_offset, ray_direction, ray_plane
 from ..types import INTERPOLATED, PLANE
-from .clustering import complete_linkage
+from .clustering import NO_APART, NO_GROUP, complete_linkage, constraints
 from .reconstruct import outliers, outliers_by_place
 from .sample import sample
 
@@ -45,8 +45,6 @@ class PlaneConstraints(NamedTuple):
     single: np.ndarray
 
 
-NO_GROUP = np.zeros(0, np.int64)
-NO_APART = np.zeros((0, 0), bool)
 NO_SINGLE = np.zeros(0, bool)
 
 
@@ -297,15 +295,7 @@ def plane_split(box, observed, camera, track2d, to_plane, D2, cut, person, prev_
     Returns xyz, top_z, bottom_z, valid, source, n_views, members and (3,) int64 counts:
     tracklets fused, outliers, one-view tracklets outside."""
     K = len(to_plane)
-    apart = NO_APART
-    if D2.shape[0] > 0:  # Eq. 2 says different people: never fused on the plane
-        apart = np.empty((K, K), np.bool_)
-        for i in range(K):
-            for j in range(K):
-                apart[i, j] = D2[to_plane[i], to_plane[j]] >= cut
-    group = NO_GROUP
-    if person.shape[0] > 0:
-        group = person[to_plane]
+    apart, group = constraints(to_plane, D2, cut, person)  # Eq. 2 says different people: never fused on the plane
     single = np.empty(K, np.bool_)
     for i in range(K):
         t = track2d[to_plane[i]]
@@ -358,9 +348,9 @@ def warm_up() -> None:
     s = sample()
     rules = PlaneRules(1e-3, 0.5, PLANE, INTERPOLATED)
     planes = PlaneArrays.from_planes(s.planes)
-    for constraints in (PlaneConstraints(NO_GROUP, NO_APART, NO_SINGLE),
-                        PlaneConstraints(np.zeros(2, np.int64), np.zeros((2, 2), bool), np.ones(2, bool))):
-        plane_stage(s.box, s.observed, s.camera, s.rig.arrays, planes, constraints, rules)
+    for given in (PlaneConstraints(NO_GROUP, NO_APART, NO_SINGLE),
+                  PlaneConstraints(np.zeros(2, np.int64), np.zeros((2, 2), bool), np.ones(2, bool))):
+        plane_stage(s.box, s.observed, s.camera, s.rig.arrays, planes, given, rules)
     i2, space = np.arange(2, dtype=np.int64), np.array([-1.0, -1.0, 0.0, 1.0, 1.0, 3.0])
     for D2, person in ((np.zeros((0, 0)), NO_GROUP), (np.zeros((2, 2)), i2)):
         for by_place, pspace in ((True, space), (False, space[:0])):

@@ -4,7 +4,7 @@
 and frame of a window, views-major, for Eq. 3 (:func:`gymtrack.geometry.primitives.triangulate_points`,
 the same solver the public :func:`gymtrack.geometry.triangulation.triangulate` runs);
 :func:`outliers` is Eq. 4 (:func:`outliers_by_place`, ``cascade+``'s: the space test on the
-mean position); :func:`opposite_clusters` and :func:`fallback_segments`: the cascade's (III-C)
+mean position); :func:`opposite_clusters` and :func:`segments_of`: the cascade's (III-C)
 two-view opposite clusters and the segments it hands the plane. Numpy references: ``tests/reference/reconstruct.py``.
 """
 
@@ -139,18 +139,19 @@ def opposite_clusters(members, opposite):
 
 
 @njit(cache=True)
-def fallback_segments(members, fallback):
-    """The segments (sorted) of the clusters ``fallback`` (M,) bool; members (M, C) int64."""
+def segments_of(members, chosen):
+    """The segments (sorted) of the clusters ``chosen`` (M,) bool; members (M, C) int64 (-1: none).
+    The cascade's segments for the plane (III-C) and the floor's ghost pairs."""
     M, C = members.shape
     n = 0
     for m in range(M):
-        if fallback[m]:
+        if chosen[m]:
             for c in range(C):
                 n += members[m, c] >= 0
     out = np.empty(n, np.int64)
     n = 0
     for m in range(M):
-        if fallback[m]:
+        if chosen[m]:
             for c in range(C):
                 if members[m, c] >= 0:
                     out[n] = members[m, c]
@@ -168,4 +169,4 @@ def warm_up() -> None:
     outliers_by_place(xyz, np.isfinite(xyz).all(axis=2), np.array([-5.0, -5.0, 0.0, 5.0, 5.0, 3.0]), 0.5)
     members = np.array([[0, 1], [-1, 2]], np.int64)
     opposite_clusters(members, np.ones((2, 2), bool))
-    fallback_segments(members, np.ones(2, bool))
+    segments_of(members, np.ones(2, bool))
