@@ -135,11 +135,9 @@ def test_ghost_test_random_clusters_are_not_trivial():
     assert ghosts > 5 and kept_two > 5
 
 
-@pytest.mark.parametrize("seed", range(25))
-def test_floor_split_matches_numpy(seed):
-    """The tracker's hook (one kernel call): a random part of the window to the plane, a few
-    ghosts' segments, Eq. 2 separations or an oracle, and Eq. 4 by place on a tracking space
-    that cuts some floor tracklets off."""
+def _floor_split_case(seed):
+    """A random window, part of it to the plane, a few ghosts' segments, Eq. 2 distances, and a
+    tracking space that cuts some floor tracklets off."""
     rng = np.random.default_rng(200 + seed)
     rig = ring_rig(sorted(rng.choice(360, size=rng.integers(2, 5), replace=False)), radius=10.0, height=3.0)
     segs = _window(rng, rig, rng.integers(0, 7))
@@ -152,6 +150,15 @@ def test_floor_split_matches_numpy(seed):
     D2 = (D2 + D2.T) / 2  # (Eq. 2 is symmetric)
     params = SimpleNamespace(cluster_2d=30.0, cluster_plane=rng.choice([0.5, 1.5]), max_speed=rng.choice([0.1, 1.0]))
     scene = SimpleNamespace(performance_space=tuple(SPACE), tracking_space=(-4.0, -4.5, 0.0, 5.0, 4.0, 4.5))
+    return segs, rig, to_plane, floor_only, D2, params, scene
+
+
+@pytest.mark.parametrize("seed", range(25))
+def test_floor_split_matches_numpy(seed):
+    """The tracker's hook (one kernel call): a random part of the window to the plane, a few
+    ghosts' segments, Eq. 2 separations or an oracle, and Eq. 4 by place on a tracking space
+    that cuts some floor tracklets off."""
+    segs, rig, to_plane, floor_only, D2, params, scene = _floor_split_case(seed)
     for d2, oracle in ((None, False), (D2, False), (None, True)):
         counts, counts_r = {}, {}
         for c in (counts, counts_r):
@@ -169,16 +176,8 @@ def test_floor_split_random_cases_are_not_trivial():
     """Over the random cases above the floor takes tracklets, Eq. 4 drops some and ghosts' segments go."""
     counts = dict.fromkeys(("segments_to_floor", "tracklets_outliers", "floor_tracklets", "segments_dropped_ghost"), 0)
     for seed in range(25):
-        rng = np.random.default_rng(200 + seed)
-        rig = ring_rig(sorted(rng.choice(360, size=rng.integers(2, 5), replace=False)), radius=10.0, height=3.0)
-        segs = _window(rng, rig, rng.integers(0, 7))
-        K = len(segs)
-        pick = rng.permutation(K)
-        n_plane = int(rng.integers(0, K + 1))
-        params = SimpleNamespace(cluster_2d=30.0, cluster_plane=rng.choice([0.5, 1.5]), max_speed=rng.choice([0.1, 1.0]))
-        scene = SimpleNamespace(performance_space=tuple(SPACE), tracking_space=(-4.0, -4.5, 0.0, 5.0, 4.0, 4.5))
-        floor.floor_split(segs, np.sort(pick[:n_plane]).astype(np.int64), None, rig.arrays, params, scene, False, counts,
-                          pick[n_plane:n_plane + int(rng.integers(0, 3))].astype(np.int64))
+        segs, rig, to_plane, floor_only, _, params, scene = _floor_split_case(seed)
+        floor.floor_split(segs, to_plane, None, rig.arrays, params, scene, False, counts, floor_only)
     assert counts["floor_tracklets"] > 5 and counts["tracklets_outliers"] > 2 and counts["segments_dropped_ghost"] > 0
 
 
