@@ -166,12 +166,6 @@ def demo(
     if notice:
         console.print(notice, highlight=False)
     results = {}
-    # each mode once on the first 3 s first (not shown): a process's first tracker call pays one-off
-    # costs (numba dispatch, allocations) that would otherwise be charged to whichever mode ran first
-    d = sim.detections
-    first = d.select(d.frame < d.frame.min() + 90) if len(d) else d
-    for mode in DEMO_MODES:
-        track_detections(sim.rig, sim.scene, first, mode=mode)
     for mode in DEMO_MODES:
         with console.status(f"tracking with {mode}"):
             results[mode] = track_detections(sim.rig, sim.scene, sim.detections, mode=mode)
