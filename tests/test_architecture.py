@@ -4,7 +4,7 @@ Every module of ``gymtrack`` is parsed (``ast``, nothing imported) and each impo
 level or inside a function (a lazy import is still a dependency) -- is resolved to the module it
 names. Checked:
 
-* layers: ``cli > batch > eval > pose > tracking, simulate > formats > geometry > core`` (core = the
+* layers: ``cli > batch > eval > analysis, export > pose, models > tracking, simulate > formats > geometry > core`` (core = the
   top-level modules ``gymtrack/*.py``); a package imports only from lower layers or itself, so
   ``tracking`` and ``simulate`` (one layer) do not import each other. ``gymtrack/__init__.py``
   is the public facade above every layer (it may re-export from any package; nothing inside
@@ -39,9 +39,11 @@ LAYERS: dict[str, int] = {
     "simulate": 3,
     "pose": 4,
     "models": 4,
-    "eval": 5,
-    "batch": 6,
-    "cli": 7,
+    "analysis": 5,
+    "export": 5,
+    "eval": 6,
+    "batch": 7,
+    "cli": 8,
 }
 FACADE = "gymtrack"  # gymtrack/__init__.py: the public API, above every layer
 
