@@ -10,13 +10,12 @@ import re
 import shutil
 import subprocess
 from html.parser import HTMLParser
-from pathlib import Path
 
 import numpy as np
 import pytest
 
 from gymtrack.errors import GymtrackError, InputError
-from gymtrack.formats.elements import ANGLES_COLUMNS, write_angles, write_elements
+from gymtrack.formats.elements import write_angles, write_elements
 
 pytest.importorskip("matplotlib")
 
@@ -190,6 +189,23 @@ def test_a_gap_in_the_frames_breaks_the_lines():
     assert np.isnan(z).sum() == 1 and np.isnan(f).sum() == 1  # one gap, one break
     i = int(np.flatnonzero(np.isnan(f))[0])
     assert f[i - 1] == FIRST + 478 and f[i + 1] == FIRST + 489
+
+
+def test_a_file_without_rows_still_gives_the_table(tmp_path):
+    """angles.csv with its header only: the elements are listed, the page says there is nothing to plot."""
+    from gymtrack.analysis.report import write_report
+
+    write_angles(tmp_path / "angles.csv", {k: v[:0] for k, v in synthetic_angles(10, gap=None).items()})
+    doc = dict(ELEMENTS, elements=ELEMENTS["elements"] + [
+        {"kind": "flight", "start_frame": 600, "end_frame": 620, "saltos": 2.0, "twists": 0.0}])
+    write_elements(tmp_path / "elements.json", doc)
+    page = _Page()
+    page.feed(write_report(tmp_path, title="Beam <final>").read_text(encoding="utf-8"))
+    fl = _table(page, "flights")
+    assert [r["saltos"] for r in fl] == ["1.00", "2.00"] and fl[1]["time (s)"] == "–"
+    assert fl[1]["apex (m)"] == "–" and fl[1]["shape"] == "–"  # not in the file, and no reason given
+    assert page.figures == {} and "angles.csv has no rows" in "".join(page.text)
+    assert "Beam <final>" in "".join(page.text)  # escaped in the source, read back as written
 
 
 def test_bad_files_raise_input_errors_naming_the_file(tmp_path):

@@ -181,6 +181,11 @@ def _missing_list(doc: Mapping[str, Any]) -> str:
 
 
 # ---------------------------------------------------------------------------------------- figures
+def _counted(v: float, word: str) -> str:
+    """``1 salto``, ``0.5 twist``, ``2 saltos``, ``0 twists``."""
+    return f"{v:g} {word}" + ("" if v == 1 or 0 < v < 1 else "s")
+
+
 def _broken(frame: np.ndarray, *cols: np.ndarray) -> list[np.ndarray]:
     """``frame`` and ``cols`` with a NaN row inserted at every gap of frames, so lines break there."""
     at = np.flatnonzero(np.diff(frame) > 1) + 1
@@ -235,7 +240,7 @@ def _figures(a: Mapping[str, np.ndarray], doc: Mapping[str, Any], fps: float) ->
         for el in doc["elements"]:
             if el["kind"] == "flight" and el.get("apex_z") is not None:
                 tm = (0.5 * (el["start_frame"] + el["end_frame"]) - t0) / fps
-                bits = [f"{el[k]:g} {w}" for k, w in (("saltos", "salto"), ("twists", "twist")) if el.get(k) is not None]
+                bits = [_counted(el[k], w) for k, w in (("saltos", "salto"), ("twists", "twist")) if el.get(k) is not None]
                 if el.get("shape"):
                     bits.append(el["shape"])
                 ax.annotate(" ".join(bits), (tm, el["apex_z"]), xytext=(0, 6), textcoords="offset points",
