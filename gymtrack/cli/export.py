@@ -39,12 +39,14 @@ def export(
         console.print(line, highlight=False, soft_wrap=True)
     c = res.counts
     if c["fk_frames_steady"] + c["fk_frames_other"]:
-        msg = (f"BVH rig: forward kinematics within {c['fk_steady_max_m'] * 1000:.2f} mm of the exported joints in the "
-               f"{c['fk_frames_steady']} frames whose bone lengths are within 0.25 mm of the rig's")
+        parts = []
+        if c["fk_frames_steady"]:
+            parts.append(f"in the {c['fk_frames_steady']} frames whose bone lengths are within 0.25 mm of the rig's, "
+                         f"its forward kinematics is within {c['fk_steady_max_m'] * 1000:.2f} mm of the exported joints")
         if c["fk_frames_other"]:
-            msg += (f"; up to {c['fk_max_m'] * 1000:.1f} mm in the {c['fk_frames_other']} others "
-                    "(a bone longer or shorter than the median moves the joints below it)")
-        console.print(msg, highlight=False, soft_wrap=True)
+            parts.append(f"in the {c['fk_frames_other']} frames whose bones differ more, a joint is {c['fk_other_median_m'] * 1000:.1f} mm "
+                         f"off (median), {c['fk_max_m'] * 1000:.1f} mm at most (the rig keeps the median bone lengths)")
+        console.print("BVH rig: " + "; ".join(parts), highlight=False, soft_wrap=True)
     for p in res.files:
         console.print(f"wrote [bold]{p}[/]", soft_wrap=True)
     if not res.files:

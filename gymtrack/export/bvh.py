@@ -189,39 +189,47 @@ class Motion:
 
 
 def solve_motion(rig: Rig, xyz: np.ndarray, joints: Sequence[str]) -> Motion:
-    """Per-frame rotations of ``rig`` that put its joints on ``xyz`` (T, J, 3), complete."""
+    """Per-frame rotations of ``rig`` that put its joints on ``xyz`` (T, J, 3), complete.
+
+    Root to leaves: each bone points from where the rig has put its joint (forward kinematics so
+    far) at the pose's next joint, so a bone length that differs from the rig's moves that joint
+    along the bone and the error does not build up sideways down the chain."""
     p = _points(xyz, joints)
     T, N = len(xyz), len(rig.names)
     G = np.broadcast_to(np.eye(3), (T, N, 3, 3)).copy()
+    fk = np.zeros((T, N, 3))
     i = rig.index
-    G[:, i("mid_hip")] = _frame(p["left_hip"] - p["right_hip"], p["mid_shoulder"] - p["mid_hip"])
-    G[:, i("mid_shoulder")] = _frame(p["left_shoulder"] - p["right_shoulder"], p["mid_shoulder"] - p["mid_hip"])
 
-    def swing_child(node: str, child: str) -> None:
+    def place(node: str, rot: np.ndarray) -> None:
+        """Give ``node`` the world rotation ``rot`` and place its children."""
+        k = i(node)
+        G[:, k] = rot
+        for c in np.flatnonzero(rig.parent == k):
+            fk[:, c] = fk[:, k] + rot @ rig.offset[c]
+
+    def aim(node: str, child: str) -> None:
         par = G[:, rig.parent[i(node)]]
-        rest = _unit(rig.offset[i(child)])
-        local = _swing(rest, np.einsum("tji,tj->ti", par, p[child] - p[node]))
-        G[:, i(node)] = par @ local
+        d = np.einsum("tji,tj->ti", par, p[child] - fk[:, i(node)])  # in the parent's frame
+        place(node, par @ _swing(_unit(rig.offset[i(child)]), d))
 
+    fk[:, 0] = p["mid_hip"]
+    place("mid_hip", _frame(p["left_hip"] - p["right_hip"], p["mid_shoulder"] - p["mid_hip"]))
+    aim("spine", "mid_shoulder")
+    place("mid_shoulder", _frame(p["left_shoulder"] - p["right_shoulder"], p["mid_shoulder"] - p["mid_hip"]))
     for side in ("left", "right"):
         for a, b in (("hip", "knee"), ("knee", "ankle"), ("shoulder", "elbow"), ("elbow", "wrist")):
-            swing_child(f"{side}_{a}", f"{side}_{b}")
-    swing_child("spine", "mid_shoulder")
+            aim(f"{side}_{a}", f"{side}_{b}")
     if rig.face:
-        swing_child("neck", "head")
+        aim("neck", "head")
         rest = rig.offset[[i(n) for n in FACE_JOINTS]]
-        now = np.stack([p[n] - p["head"] for n in FACE_JOINTS], axis=1)
-        G[:, i("head")] = _kabsch(rest - rest.mean(0), now - now.mean(1, keepdims=True))
+        now = np.stack([p[n] - fk[:, i("head")] for n in FACE_JOINTS], axis=1)
+        place("head", _kabsch(rest - rest.mean(0), now - now.mean(1, keepdims=True)))
     for k in range(N):  # leaves keep their parent's frame (no rotation of their own)
         if k not in rig.parent:
             G[:, k] = G[:, rig.parent[k]]
     local = G.copy()
     for k in range(1, N):
         local[:, k] = np.swapaxes(G[:, rig.parent[k]], -1, -2) @ G[:, k]
-    fk = np.zeros((T, N, 3))
-    fk[:, 0] = p["mid_hip"]
-    for k in range(1, N):
-        fk[:, k] = fk[:, rig.parent[k]] + G[:, rig.parent[k]] @ rig.offset[k]
     return Motion(p["mid_hip"], local, G, fk)
 
 

@@ -46,9 +46,11 @@ class ExportResult:
 
     files: list[Path] = field(default_factory=list)
     lines: list[str] = field(default_factory=list)
+    fk_errors: list = field(default_factory=list)  # per part: the joint errors (m) in frames not steady
     counts: dict = field(default_factory=lambda: {"gaps_filled": 0, "cells_filled": 0, "parts": 0, "frames_cut": 0,
                                                   "invalid": 0, "nan_cells": 0, "fk_max_m": 0.0,
-                                                  "fk_steady_max_m": 0.0, "fk_frames_steady": 0, "fk_frames_other": 0})
+                                                  "fk_steady_max_m": 0.0, "fk_frames_steady": 0, "fk_frames_other": 0,
+                                                  "fk_other_median_m": 0.0})
 
 
 def resolve_fps(out: Path, fps: float | None = None, routine: Path | None = None) -> tuple[float, str]:
@@ -211,9 +213,11 @@ def _series_files(series: TrackSeries, fmt: str, fps: float, folder: Path, stem:
         else:
             def wb(tmp: Path, xs=xs) -> None:
                 m = _bvh.solve_motion(rig, xs, joints)
-                err = np.nanmax(_bvh.fk_error(rig, m, xs, joints), axis=1)  # (T,)
+                every = _bvh.fk_error(rig, m, xs, joints)  # (T, J)
+                err = np.nanmax(every, axis=1)  # (T,)
                 steady = _bvh.bone_deviation(rig, xs, joints) < STEADY_M
                 c = res.counts
+                res.fk_errors.append(every[~steady][np.isfinite(every[~steady])])
                 c["fk_frames_steady"] += int(steady.sum())
                 c["fk_frames_other"] += int((~steady).sum())
                 c["fk_steady_max_m"] = max(c["fk_steady_max_m"], float(err[steady].max(initial=0.0)))
@@ -261,6 +265,8 @@ def export_output(out: str | Path, fmt: str, all_tracks: bool = False, dest: str
         stage.abort()
         raise
     res.files = finals
+    if res.fk_errors and sum(e.size for e in res.fk_errors):
+        res.counts["fk_other_median_m"] = float(np.median(np.concatenate(res.fk_errors)))
     return res
 
 
