@@ -364,3 +364,43 @@ def test_all_tracks_and_the_targets_rows(routine_out, tmp_path):
     # without a routine in the marker, the frame rate must be given
     r, text = _export(out, "--format", "trc")
     assert r.exit_code != 0 and "--fps" in text
+
+
+def test_pipeline_with_a_silent_camera(tmp_path):
+    """simulate -> track -> pose -> export, a camera silent for a second: the files follow poses_3d.csv
+    (read here with pandas): C3D invalid exactly where it has no row, the TRC frames complete."""
+    ezc3d = pytest.importorskip("ezc3d")
+    from gymtrack.formats.outputs import write_outputs
+    from gymtrack.tracking import track_detections
+
+    sim = simulate_routine("horizontal_bar", n_cam=2, seed=3, seconds=10)
+    routine, out = tmp_path / "routine", tmp_path / "out"
+    sim.write(routine)
+    cam0 = routine / "detections" / "cam0.txt"
+    lines = cam0.read_text().splitlines()
+    cam0.write_text("".join(ln + "\n" for ln in lines if not 150 <= int(ln.split(",")[0]) < 180))
+    from gymtrack.formats.routine import load_routine
+
+    r = load_routine(routine)
+    with atomic_output(out, "track", {"routine": routine.absolute()}) as staging:
+        write_outputs(track_detections(r.rig, r.scene, r.detections, mode="cascade"), staging)
+    res = CliRunner().invoke(app, ["pose", str(routine), str(out), "--simulated-model"])
+    assert res.exit_code == 0, res.output
+    df = pd.read_csv(out / "poses_3d.csv")
+    assert df.groupby("frame")["track_id"].nunique().max() == 1  # the target only
+    first, last = df["frame"].min(), df["frame"].max()
+    want_invalid = (last - first + 1) * 17 - len(df)
+    r1, text = _export(out, "--format", "c3d")
+    assert r1.exit_code == 0, text
+    assert f"{want_invalid} without an estimate written as invalid" in text
+    c = ezc3d.c3d(str(out / "export" / "target.c3d"))
+    res_ = c["data"]["meta_points"]["residuals"][0]
+    assert (res_ == -1).sum() == want_invalid
+    r2, text = _export(out, "--format", "trc")
+    assert r2.exit_code == 0, text
+    for f in sorted((out / "export").glob("target*.trc")):
+        t = pd.read_csv(f, sep="\t", skiprows=6, header=None)
+        assert np.isfinite(t.to_numpy()).all() and (np.diff(t[0]) == 1).all()
+    r3, text = _export(out, "--format", "bvh")
+    assert r3.exit_code == 0, text
+    assert "BVH rig:" in text

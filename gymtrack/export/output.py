@@ -108,6 +108,9 @@ def _read_poses(out: Path, all_tracks: bool) -> list[tuple[str, Poses3D, int | N
         t = read_target_3d(tp)
         key = t["frame"] * (1 << 32) + t["track_id"]
         poses = poses.subset(np.isin(poses.frame * (1 << 32) + poses.track_id, key))
+        if len(poses) == 0:
+            raise InputError("no pose of the target: no (frame, track_id) of target_3d.csv has one; "
+                             "pass --all-tracks to export every track", source=src)
     return [("target", poses, None)]
 
 
@@ -166,7 +169,8 @@ def _frames_text(frames: np.ndarray, parts: list[slice]) -> str:
     return ", ".join(f"{frames[s.start]}-{frames[s.stop - 1]}" for s in parts)
 
 
-def _series_files(series: TrackSeries, fmt: str, fps: float, folder: Path, stem: str, res: ExportResult) -> list[tuple[Path, Callable[[Path], None]]]:
+def _series_files(series: TrackSeries, fmt: str, fps: float, folder: Path, stem: str,
+                  res: ExportResult) -> list[tuple[Path, Callable[[Path], None]]]:
     """The files of one track for trc / bvh / c3d: (final path, writer of a temp path)."""
     from .c3d import write_c3d
     from .trc import write_trc
@@ -181,8 +185,9 @@ def _series_files(series: TrackSeries, fmt: str, fps: float, folder: Path, stem:
         return [(folder / f"{stem}.c3d", w)]
     keep = [k for k in range(len(series.joints)) if np.isfinite(series.xyz[:, k]).all(-1).any()]
     joints = tuple(series.joints[k] for k in keep)
-    if fmt == "bvh":
-        names = [n for n in _bvh.BODY_JOINTS + _bvh.FACE_JOINTS if n in joints]
+    if fmt == "bvh":  # the rig's joints: the body, and the face when the track has all five
+        face = _bvh.FACE_JOINTS if all(n in joints for n in _bvh.FACE_JOINTS) else ()
+        names = [n for n in _bvh.BODY_JOINTS + face if n in joints]
         keep = [series.joints.index(n) for n in names]
         joints = tuple(names)
     dropped = [n for n in series.joints if n not in joints]
