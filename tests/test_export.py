@@ -130,6 +130,7 @@ def test_c3d_read_back_with_ezc3d_and_c3d(routine_out, tmp_path):
     c = ezc3d.c3d(str(path))
     P = c["parameters"]["POINT"]
     assert list(P["LABELS"]["value"]) == list(J) and P["RATE"]["value"][0] == FPS and P["UNITS"]["value"] == ["m"]
+    assert P["X_SCREEN"]["value"] == ["+X"] and P["Y_SCREEN"]["value"] == ["+Z"]  # z up
     assert c["header"]["points"]["first_frame"] == frames[0]
     pts = c["data"]["points"][:3].transpose(2, 1, 0)  # (T, J, 3)
     res = c["data"]["meta_points"]["residuals"][0].T
@@ -140,6 +141,7 @@ def test_c3d_read_back_with_ezc3d_and_c3d(routine_out, tmp_path):
     with open(path, "rb") as fh, pytest.warns(UserWarning, match="analog"):
         reader = c3d.Reader(fh)
         assert [s.strip() for s in reader.point_labels] == list(J) and reader.point_rate == FPS
+        assert reader.get("POINT:UNITS").string_value.strip() == "m"
         got = np.stack([pts_ for _, pts_, _ in reader.read_frames()])  # (T, J, 5): x y z residual cameras
     assert np.array_equal(got[..., 3] == -1, missing)
     np.testing.assert_allclose(got[..., :3][~missing], g[~missing], atol=1e-6)

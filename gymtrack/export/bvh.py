@@ -52,10 +52,9 @@ BODY_JOINTS = ("left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "
                "left_hip", "right_hip", "left_knee", "right_knee", "left_ankle", "right_ankle")
 FACE_JOINTS = ("nose", "left_eye", "right_eye", "left_ear", "right_ear")
 X, Y = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
-#: limb bones: (joint, child, rest direction)
-_LIMBS = (("left_hip", "left_knee", -Y), ("left_knee", "left_ankle", -Y), ("right_hip", "right_knee", -Y),
-          ("right_knee", "right_ankle", -Y), ("left_shoulder", "left_elbow", X), ("left_elbow", "left_wrist", X),
-          ("right_shoulder", "right_elbow", -X), ("right_elbow", "right_wrist", -X))
+#: limb bones (joint, child)
+_LIMBS = tuple((f"{side}_{a}", f"{side}_{b}") for side in ("left", "right")
+               for a, b in (("hip", "knee"), ("knee", "ankle"), ("shoulder", "elbow"), ("elbow", "wrist")))
 EPS = 1e-9
 
 
@@ -150,7 +149,7 @@ def fit_rig(xyz: np.ndarray, joints: Sequence[str]) -> Rig:
                          field="--format")
     face = all(n in have for n in FACE_JOINTS)
     p = _points(xyz, joints)
-    L = {f"{a}-{b}": _median_length(p[a], p[b]) for a, b, _ in _LIMBS}
+    L = {f"{a}-{b}": _median_length(p[a], p[b]) for a, b in _LIMBS}
     L["hips"] = _median_length(p["left_hip"], p["right_hip"])
     L["shoulders"] = _median_length(p["left_shoulder"], p["right_shoulder"])
     L["trunk"] = _median_length(p["mid_hip"], p["mid_shoulder"])
@@ -216,9 +215,8 @@ def solve_motion(rig: Rig, xyz: np.ndarray, joints: Sequence[str]) -> Motion:
     place("mid_hip", _frame(p["left_hip"] - p["right_hip"], p["mid_shoulder"] - p["mid_hip"]))
     aim("spine", "mid_shoulder")
     place("mid_shoulder", _frame(p["left_shoulder"] - p["right_shoulder"], p["mid_shoulder"] - p["mid_hip"]))
-    for side in ("left", "right"):
-        for a, b in (("hip", "knee"), ("knee", "ankle"), ("shoulder", "elbow"), ("elbow", "wrist")):
-            aim(f"{side}_{a}", f"{side}_{b}")
+    for a, b in _LIMBS:
+        aim(a, b)
     if rig.face:
         aim("neck", "head")
         rest = rig.offset[[i(n) for n in FACE_JOINTS]]
@@ -264,6 +262,10 @@ def _euler(local: np.ndarray) -> np.ndarray:
     return np.degrees(np.unwrap(np.radians(e), axis=0)) if T > 1 else e
 
 
+def _xyz(v: np.ndarray) -> str:
+    return " ".join(f"{round(float(x), 6) + 0.0:.6f}" for x in v)  # + 0.0: no "-0.000000"
+
+
 def write_bvh(path: str | Path, rig: Rig, motion: Motion, fps: float) -> Path:
     """Write the BVH file of ``rig`` and ``motion``."""
     path = Path(path)
@@ -275,14 +277,14 @@ def write_bvh(path: str | Path, rig: Rig, motion: Motion, fps: float) -> Path:
         tab = "\t" * depth
         out.append(f"{tab}{'ROOT' if k == 0 else 'JOINT'} {rig.names[k]}")
         out.append(f"{tab}{{")
-        out.append(f"{tab}\tOFFSET " + " ".join(f"{v:.6f}" for v in rig.offset[k]))
+        out.append(f"{tab}\tOFFSET {_xyz(rig.offset[k])}")
         out.append(f"{tab}\tCHANNELS " + ("6 Xposition Yposition Zposition " if k == 0 else "3 ")
                    + "Zrotation Xrotation Yrotation")
         for c in children[k]:
             node(c, depth + 1)
         if not children[k]:
             out.extend([f"{tab}\tEnd Site", f"{tab}\t{{",
-                    f"{tab}\t\tOFFSET " + " ".join(f"{v:.6f}" for v in 0.25 * rig.offset[k]), f"{tab}\t}}"])
+                    f"{tab}\t\tOFFSET {_xyz(0.25 * rig.offset[k])}", f"{tab}\t}}"])
         out.append(f"{tab}}}")
 
     node(0, 0)

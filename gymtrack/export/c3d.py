@@ -2,7 +2,7 @@
 
 The paper's 3D pose (Section III-D, last paragraph) as C3D points, written with ``ezc3d`` (the
 ``export`` extra): POINT:LABELS the joint names, POINT:RATE the fps, POINT:UNITS ``m``, the world
-frame as it is (z up, metres). A joint without an estimate in a frame has residual -1, C3D's
+frame as it is (z up, metres; POINT:X_SCREEN ``+X`` and POINT:Y_SCREEN ``+Z`` tell viewers so). A joint without an estimate in a frame has residual -1, C3D's
 "invalid", and no position (ezc3d stores it as the spec's zeros); an estimated joint has residual
 0 ("valid"; gymtrack has no residual in metres to give). Nothing is interpolated: a gap stays a gap.
 
@@ -40,6 +40,9 @@ def write_c3d(path: str | Path, first_frame: int, xyz: np.ndarray, joints: Seque
     c["parameters"]["POINT"]["UNITS"]["value"] = ["m"]
     c["parameters"]["POINT"]["LABELS"]["value"] = tuple(joints)
     c["parameters"]["POINT"]["DESCRIPTIONS"]["value"] = tuple(f"gymtrack 3D pose: {n}" for n in joints)
+    # the screen axes viewers (Mokka, Nexus) orient the view by: the world's z is up
+    c.add_parameter("POINT", "X_SCREEN", "+X")
+    c.add_parameter("POINT", "Y_SCREEN", "+Z")
     c["header"]["points"]["first_frame"] = int(first_frame)
     ok = np.all(np.isfinite(xyz), axis=-1)  # (T, J)
     pts = np.ones((4, J, T))
