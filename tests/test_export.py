@@ -363,6 +363,10 @@ def test_all_tracks_and_the_targets_rows(routine_out, tmp_path):
     for t, dx in ((3, 0.0), (5, 2.0)):
         pts = ezc3d.c3d(str(out / "export" / f"track{t}.c3d"))["data"]["points"][:3].transpose(2, 1, 0)
         np.testing.assert_allclose(pts[..., 0][ok], g[..., 0][ok] + dx, atol=1e-6)
+    folder = tmp_path / "files"
+    folder.mkdir()
+    assert _export(out, "--format", "c3d", "--fps", "30", "--all-tracks", "-o", str(folder))[0].exit_code == 0
+    assert sorted(q.name for q in folder.iterdir()) == ["track3.c3d", "track5.c3d"]  # -o a folder: default names
     # without a routine in the marker, the frame rate must be given
     r, text = _export(out, "--format", "trc")
     assert r.exit_code != 0 and "--fps" in text
@@ -406,3 +410,26 @@ def test_pipeline_with_a_silent_camera(tmp_path):
     r3, text = _export(out, "--format", "bvh")
     assert r3.exit_code == 0, text
     assert "BVH rig:" in text
+
+
+def test_gap_rule_against_pandas():
+    """fill_gaps and complete_parts on random gaps agree with pandas' interpolation of runs <= 15 frames."""
+    from gymtrack.export.series import complete_parts, fill_gaps
+
+    rng = np.random.default_rng(7)
+    for _ in range(20):
+        T, Jn = int(rng.integers(5, 120)), int(rng.integers(1, 5))
+        xyz = rng.normal(size=(T, Jn, 3)).cumsum(0)
+        for _ in range(int(rng.integers(0, 6))):  # holes of random length in random joints
+            j, s, n = rng.integers(Jn), rng.integers(T), rng.integers(1, 30)
+            xyz[s:s + n, j] = np.nan
+        filled, info = fill_gaps(xyz, 15)
+        want = _interp(np.arange(T), xyz)
+        np.testing.assert_allclose(filled, want, atol=1e-12)
+        assert info.cells == int((np.isnan(xyz[..., 0]) & ~np.isnan(want[..., 0])).sum())
+        runs = complete_parts(filled)
+        ok = np.zeros(T, bool)
+        for r in runs:
+            ok[r] = True
+            assert r.start == 0 or not np.isfinite(filled[r.start - 1]).all()  # maximal
+        assert np.array_equal(ok, np.isfinite(filled).all(axis=(1, 2)))

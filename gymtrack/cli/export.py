@@ -25,7 +25,7 @@ def export(
     out: Path = typer.Argument(..., help="output folder of `gymtrack track` + `gymtrack pose` (+ `gymtrack analyse` for mot)"),
     fmt: str = typer.Option(..., "--format", "-f", help="trc (OpenSim markers) | c3d | mot (OpenSim angles) | bvh (animation rig)"),
     all_tracks: bool = typer.Option(False, "--all-tracks", help="one file per track, not only the target's"),
-    output: Optional[Path] = typer.Option(None, "--output", "-o", help="file to write (default: OUT/export/target.FORMAT)"),
+    output: Optional[Path] = typer.Option(None, "--output", "-o", help="file to write, or a folder (default: OUT/export/target.FORMAT; track<id> with --all-tracks)"),
     overwrite: bool = typer.Option(False, "--overwrite", help="replace existing files"),
     fps: Optional[float] = typer.Option(None, "--fps", help="frame rate (default: the routine's scene.yaml)"),
     routine: Optional[Path] = typer.Option(None, "--routine", help="routine folder whose scene.yaml gives the frame rate"),

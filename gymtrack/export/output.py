@@ -154,6 +154,8 @@ def _names(dest: Path | None, out: Path, stem: str, n_tracks: int) -> tuple[Path
     """(folder, stem) of one track's files."""
     if dest is None:
         return out / "export", stem
+    if dest.is_dir():  # -o a folder: the default names in it
+        return dest, stem
     return dest.parent, (dest.stem if n_tracks == 1 else f"{dest.stem}_{stem}")
 
 
