@@ -18,7 +18,7 @@ or ``gymtrack.track_routine(folder)`` / ``gymtrack.track_detections(rig, scene, 
 The tracker's names are imported on first use, so ``import gymtrack`` stays light.
 """
 
-__version__ = "0.1.0"
+from .version import SOURCE_VERSION as __version__  # noqa: E402  (the one literal: gymtrack/version.py)
 
 from .detections import Detections  # noqa: E402
 from .errors import GymtrackError, InputError  # noqa: E402

@@ -74,6 +74,9 @@ def test_report_section(rows, tmp_path):
     files = write_benchmark(BenchmarkRun(rows, {}, specs, 1.0, 1), tmp_path, mvor={"available": False, "note": "no MVOR here"})
     md = files["report"].read_text()
     assert "Fig. 7 as a table" in md and "Lifting ablation" in md and "no MVOR here" in md
+    from gymtrack.version import version
+
+    assert f"- gymtrack version: {version()}" in md  # the report says which gymtrack wrote it
     assert "pose n_cam=2: MPJPE cascade <= 0.7 x triangulation" in md
     assert files["pose"].read_text().count("\n") == 1 + len(pose_tables(rows)["fig7"])
     assert "not measured" in pose_markdown([{"routine": "x", "apparatus": "vault", "n_cam": 2, "method": "cascade", "error": ""}])

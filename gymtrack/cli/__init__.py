@@ -13,8 +13,20 @@ app = typer.Typer(
 )
 
 
+def _print_version(value: bool) -> None:
+    if value:
+        from ..version import version
+
+        typer.echo(f"gymtrack {version()}")
+        raise typer.Exit()
+
+
 @app.callback()
-def _root(ctx: typer.Context) -> None:
+def _root(
+    ctx: typer.Context,
+    _version: bool = typer.Option(False, "--version", "-V", callback=_print_version, is_eager=True,
+                                  help="print gymtrack's version and exit"),
+) -> None:
     """Route Python warnings to the one reporting path (:mod:`gymtrack.cli.report`) while a command runs."""
     from .report import capture_warnings
 
@@ -26,6 +38,7 @@ def _root(ctx: typer.Context) -> None:
 # Sub-modules register their commands on `app` when imported.
 from . import options  # noqa: E402,F401  (first: its help patch applies to every command)
 from . import info, simulate, track, benchmark, pose, eval, fit_plane, detect, run, models, view, batch  # noqa: E402,F401
+from . import export  # noqa: E402,F401
 
 
 def main() -> None:

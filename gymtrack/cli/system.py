@@ -93,8 +93,10 @@ def _version(dist: str) -> str:
 
 def system_rows() -> list[tuple[str, str]]:
     """(what, value) rows of ``gymtrack info --system``."""
+    from gymtrack.version import version as gymtrack_version
+
     rows = [
-        ("gymtrack", f"{_version('gymtrack')} ({_package_dir()})"),
+        ("gymtrack", f"{gymtrack_version()} ({_package_dir()})"),  # as `gymtrack --version` says
         ("python", f"{platform.python_version()} ({sys.executable})"),
         ("platform", platform.platform()),
     ]

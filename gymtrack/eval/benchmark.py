@@ -389,7 +389,9 @@ def write_benchmark(run: BenchmarkRun, out: str | Path, meta: dict | None = None
             plots.append(p.name)
         except ImportError:  # matplotlib is optional (the 'plot' extra)
             break
-    meta = {"routines": len(run.specs), "parallel jobs": run.jobs, "CPUs": os.cpu_count(), "wall seconds": round(run.seconds, 1),
+    from ..version import version
+
+    meta = {"gymtrack version": version(), "routines": len(run.specs), "parallel jobs": run.jobs, "CPUs": os.cpu_count(), "wall seconds": round(run.seconds, 1),
             **(meta or {})}
     extra = "\n\n".join(x for x in (pose_markdown(run.rows, mvor), wildtrack_markdown(wildtrack) if wildtrack else None,
                                      dropout[0] if dropout is not None else None) if x)

@@ -20,8 +20,8 @@ before any work and a bad ``--out`` fails in a second, with a one-line
 removed the next time.
 
 The marker (JSON): ``{"gymtrack_output": 1, "command", "version", "created" (UTC ISO time),
-"inputs": {name: value}, "files": {relative path: sha256}, "updates": [{"command", "time",
-"inputs", "files": [relative paths]}]}``.
+"inputs": {name: value}, "files": {relative path: sha256}, "updates": [{"command", "version",
+"time", "inputs", "files": [relative paths]}]}``.
 """
 
 from __future__ import annotations
@@ -315,7 +315,8 @@ def atomic_update(out: str | Path, command: str, inputs: Mapping[str, Any] | Non
             files.update(new_sums)
             marker["files"] = dict(sorted(files.items()))
             marker.setdefault("updates", []).append(
-                {"command": command, "time": _now(), "inputs": _jsonable(inputs), "files": sorted(new_sums)}
+                {"command": command, "version": _version(), "time": _now(), "inputs": _jsonable(inputs),
+                 "files": sorted(new_sums)}
             )
             _write_json_atomic(out / MARKER, marker)
     except BaseException as exc:
@@ -327,10 +328,7 @@ def atomic_update(out: str | Path, command: str, inputs: Mapping[str, Any] | Non
 
 
 def _version() -> str:
-    """The installed gymtrack version (metadata: importing the package facade here would go up a layer)."""
-    from importlib import metadata
+    """gymtrack's version (:func:`gymtrack.version.version`: the metadata, else the source's)."""
+    from ..version import version
 
-    try:
-        return metadata.version("gymtrack")
-    except metadata.PackageNotFoundError:
-        return "unknown"
+    return version()

@@ -7,7 +7,7 @@
       tracks_2d/<camera>.txt     MOTChallenge result lines; the id is the 3D track id
       target_3d.csv              frame,track_id,x,y,z,source
       target_2d/<camera>.txt     MOTChallenge lines of the target's expanded box b_buf (Eq. 14)
-      summary.json               counts, timings, frames per second
+      summary.json               counts, timings, frames per second, the gymtrack version
 
 CSV files have a header line; numbers are metres with 4 decimals, pixels with 2. Unknown
 heights are written empty. Frame numbers are the input's.
@@ -26,6 +26,7 @@ import numpy as np
 
 from ..detections import Detections
 from ..errors import InputError
+from ..version import version
 from .motchallenge import write_mot
 from .textfile import read_text
 
@@ -92,7 +93,7 @@ def write_outputs(result, out: str | Path) -> dict[str, Path]:
     paths["tracks_2d"] = out / "tracks_2d"
     paths["target_2d"] = out / "target_2d"
     summary = out / "summary.json"
-    summary.write_text(json.dumps(result.summary, indent=2) + "\n")
+    summary.write_text(json.dumps({**result.summary, "version": version()}, indent=2) + "\n")
     paths["summary"] = summary
     return paths
 
