@@ -10,7 +10,7 @@ import numpy as np
 from conftest import make_detections, ring_rig, simple_scene
 from gymtrack.tracking.floor import drop_floor_ghosts, floor_candidates, floor_stage
 from gymtrack.tracking.offline import track_detections
-from gymtrack.tracking.tracker import MODES
+from gymtrack.modes import MODES
 from gymtrack.tracking.types import WindowTracklets, WindowTracklets3D
 
 W = 6
@@ -155,7 +155,7 @@ def test_floor_tracklet_continues_the_track_of_its_views_2d_tracks():
 
     for by_2d, floor, same in ((True, True, True), (True, False, False), (False, True, False)):
         counts = defaultdict(int)
-        linker = WindowLinker(5, 0.6, 0, 1.0, counts, by_2d=by_2d)
+        linker = WindowLinker(5, 0.6, 0, 1.0, counts, floor_by_2d=by_2d)
         track2d = np.array([10, 11])
         a = linker.step(window(0, 0.0), track2d, np.zeros(1, bool), np.zeros(1, bool))
         b = linker.step(window(5, 3.0), track2d, np.zeros(1, bool), np.array([floor]))  # 3 m away: no 3D link

@@ -194,12 +194,13 @@ class WindowLinker:
     """
 
     def __init__(self, window_step: int, link_3d: float, relink_frames: int, max_speed: float, counts: dict,
-                 by_2d: bool = False):
+                 floor_by_2d: bool = False, keep_older: bool = False):
         self.window_step, self.link_3d = int(window_step), float(link_3d)
-        # cascade+: a floor tracklet whose views' 2D tracks all belonged to one track of the
-        # previous window continues it whatever its 3D distance (the hypothesis changed -- plane
-        # to floor after a landing -- not the person)
-        self.by_2d = by_2d
+        # a floor tracklet whose views' 2D tracks all belonged to one track of the previous window
+        # continues it whatever its 3D distance (the hypothesis changed -- plane to floor after a
+        # landing -- not the person)
+        self.floor_by_2d = floor_by_2d
+        self.keep_older = keep_older  # a young duplicate's continuation takes the older track's id
         self.prev_owner = np.zeros(0, np.int64)  # the track of each of prev_2d
         self.relink_frames, self.max_speed = int(relink_frames), max_speed
         self.counts = counts
@@ -243,13 +244,13 @@ class WindowLinker:
 
         cur: (M, W) the window's tracklets (``members`` index ``track2d``); track2d: (K,) the 2D
         track ids of the window's segments; solo: (M,) bool, one-view plane tracklets (they may
-        only continue a track); floor: (M,) bool, floor tracklets (``by_2d``). Returns the
+        only continue a track); floor: (M,) bool, floor tracklets (``floor_by_2d``). Returns the
         linked tracklets, ``track_id`` set (new ids for the unlinked), unlinked one-view
         tracklets removed.
         """
         self._track2d, self._floor = track2d, floor
         ids = self._link(cur, solo)
-        if self.by_2d and self.prev is not None and len(self.prev) and self.prev.start == cur.start - self.window_step:
+        if self.keep_older and self.prev is not None and len(self.prev) and self.prev.start == cur.start - self.window_step:
             self._keep_older(ids)
         first_new = self.next_track_id
         new = ids < 0
@@ -264,8 +265,8 @@ class WindowLinker:
         cur = cur.with_track_id(ids)
         has = cur.members >= 0
         self.prev_2d = track2d[cur.members[has]]
-        if self.by_2d:
-            self.prev_owner = np.repeat(cur.track_id, has.sum(1))  # (row-major, as prev_2d; cheaper than broadcast_to)
+        # (row-major, as prev_2d; cheaper than broadcast_to; the ghost test's confirmation reads it too)
+        self.prev_owner = np.repeat(cur.track_id, has.sum(1))
         self.prev_seen = track2d
         self._prev_first_new = first_new
         self._end_tracks(cur)
@@ -279,14 +280,14 @@ class WindowLinker:
         ids = np.full(len(cur), -1, np.int64)
         prev = self.prev
         chained = prev is not None and len(prev) > 0 and prev.start == start - self.window_step
-        if self.by_2d and chained and self._floor is not None and self._floor.any() and len(self.prev_2d):
+        if self.floor_by_2d and chained and self._floor is not None and self._floor.any() and len(self.prev_2d):
             self._link_by_2d(cur, ids)
         # a cascade here too: candidates of several views link first, one-view ones only to what is left
         for k, group in enumerate((~solo, solo) if solo.any() else (None,)):
             cols = np.flatnonzero(ids < 0) if group is None else np.flatnonzero(group & (ids < 0))
             # the first pass may link any previous tracklet, the second only those still free
-            # (by_2d: only once a link by 2D tracks took one)
-            free = (np.flatnonzero(~member(prev.track_id, ids)) if k or (self.by_2d and (ids >= 0).any())
+            # (floor_by_2d: only once a link by 2D tracks took one)
+            free = (np.flatnonzero(~member(prev.track_id, ids)) if k or (self.floor_by_2d and (ids >= 0).any())
                     else np.arange(len(prev))) if chained else []
             if len(cols) and len(free):
                 r, c = link(link_distances(prev.xyz[free], prev.valid[free], cur.xyz[cols], cur.valid[cols],
@@ -299,7 +300,7 @@ class WindowLinker:
         return ids
 
     def _keep_older(self, ids: np.ndarray) -> None:
-        """``cascade+``: a track born in the previous window beside an older track (their tracklets
+        """``keep_older``: a track born in the previous window beside an older track (their tracklets
         there within ``link_3d``, Eq. 10 over the whole window) is a duplicate of it -- Algorithm 1
         split one person's views into two clusters. When linking continued the young duplicate
         and not the older track, the continuation takes the older id (written into ``ids``); the

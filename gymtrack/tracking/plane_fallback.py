@@ -104,14 +104,14 @@ def _rules(threshold: float) -> PlaneRules:  # (one per threshold: built once, n
 def plane_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | None, rig: RigArrays,
                 planes: PlaneArrays, params, oracle: bool, prev_2d: np.ndarray, prev_seen: np.ndarray,
                 tracking_space: np.ndarray, performance_space: np.ndarray | None, counts: dict,
-                by_place: bool = True) -> WindowTracklets3D | None:
+                at_mean: bool = True) -> WindowTracklets3D | None:
     """The tracker's plane stage for the segments ``to_plane`` (indices into ``segs``), one
     kernel call (:func:`._kernels.plane.plane_split`) doing what the tracker did around
     :func:`plane_stage`: segments Eq. 2 separates (``D2 >= cluster_2d``) or an oracle's ids
     (``oracle``: ``track2d // C``) tell apart are not fused; a view left alone may continue its 2D
     track's 3D track when that 2D track was a member of the previous window's tracklets
     (``prev_2d``) or is new (not among ``prev_seen``); Eq. 4 in ``tracking_space``
-    (:func:`.reconstruct.outliers`; ``by_place``, ``cascade+``: :func:`.reconstruct.outliers_by_place`);
+    (:func:`.reconstruct.outliers`; ``at_mean``: the space test on the mean, :func:`.reconstruct.outliers_at_mean`);
     ``cascade+`` (``performance_space`` given): a one-view tracklet is kept only while its points
     stay inside it (:func:`.floor.solo_inside`). Returns the plane tracklets (``members`` index
     ``segs``), None when the stage fused nothing; counts as the numpy path counts them."""
@@ -119,7 +119,7 @@ def plane_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | No
     xyz, top, bottom, valid, source, n_views, members, stats = plane_split_kernel(
         segs.box, segs.observed, segs.camera, segs.track2d, to_plane, _NO_D2 if D2 is None else D2,
         float(params.cluster_2d), segs.track2d // C if oracle else NO_GROUP, prev_2d, prev_seen, rig, planes,
-        _rules(float(params.cluster_plane)), tracking_space, float(params.max_speed), bool(by_place),
+        _rules(float(params.cluster_plane)), tracking_space, float(params.max_speed), bool(at_mean),
         _NO_SPACE if performance_space is None else performance_space)
     fused, n_outliers, n_outside = stats.tolist()
     counts["segments_to_plane"] += len(to_plane)
