@@ -223,24 +223,6 @@ def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig:
 _NO_SPACE = np.zeros(6)
 
 
-def solo_inside(pl: WindowTracklets3D, space: np.ndarray, counts: dict) -> WindowTracklets3D:
-    """``cascade+`` (issue 12 item 5, the target's hand-over): a one-view plane tracklet (it may
-    only continue a track) is kept only while its points stay inside the performance space
-    (``space`` (6,)): the apparatus plane holds only there, so a view left alone cannot carry a
-    track -- the target's after a dismount -- onto someone walking away from the apparatus."""
-    solo = (pl.members >= 0).sum(1) == 1
-    if not solo.any():
-        return pl
-    x, y = pl.xyz[..., 0], pl.xyz[..., 1]
-    with np.errstate(invalid="ignore"):
-        out = pl.valid & ~((x >= space[0]) & (x <= space[3]) & (y >= space[1]) & (y <= space[4]))
-    drop = solo & out.any(1)
-    if drop.any():
-        counts["plane_single_view_outside"] += int(drop.sum())
-        pl = pl.subset(~drop)
-    return pl
-
-
 def continuation_only(n: int, tri: WindowTracklets3D | None, floor: WindowTracklets3D | None,
                       plane: WindowTracklets3D | None, counts: dict) -> tuple[np.ndarray, np.ndarray]:
     """Which of a window's ``n`` 3D tracklets (triangulated, then floor, then plane ones, in that

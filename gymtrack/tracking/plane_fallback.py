@@ -113,7 +113,7 @@ def plane_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | No
     (``prev_2d``) or is new (not among ``prev_seen``); Eq. 4 in ``tracking_space``
     (:func:`.reconstruct.outliers`; ``at_mean``: the space test on the mean, :func:`.reconstruct.outliers_at_mean`);
     ``cascade+`` (``performance_space`` given): a one-view tracklet is kept only while its points
-    stay inside it (:func:`.floor.solo_inside`). Returns the plane tracklets (``members`` index
+    stay inside it. Returns the plane tracklets (``members`` index
     ``segs``), None when the stage fused nothing; counts as the numpy path counts them."""
     C = len(rig.K)
     xyz, top, bottom, valid, source, n_views, members, stats = plane_split_kernel(

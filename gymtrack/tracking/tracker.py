@@ -67,12 +67,12 @@ from ..geometry.views import opposite_pairs
 from ._kernels import warm_up
 from ._kernels.single_view import frame_rows_check
 from .clustering import complete_linkage, tracklet_distances
-from .floor import continuation_only, drop_floor_ghosts, floor_split, solo_inside
+from .floor import continuation_only, drop_floor_ghosts, floor_split
 from .exclusion import suppress_duplicates
 from .fusion import PlaneRayFusion
 from .linking import WindowLinker
 from .motion_link import MotionLinker
-from .plane_fallback import plane_split, plane_stage
+from .plane_fallback import plane_split
 from .plane_fit import REFINE_EVERY
 from .plane_refine import PlaneRefiner
 from .reconstruct import cluster_members, fallback_segments, opposite_clusters, outliers, outliers_at_mean, triangulate_clusters
@@ -360,7 +360,7 @@ class Tracker:
         """Stage 5: the segments ``to_plane`` on the vertical plane (Eq. 5-9), outliers dropped;
         ``members`` index ``segs``. None when nothing is left. With the floor hypothesis: people on
         the floor first (:func:`.floor.floor_split`), returned second."""
-        p, C = self.params, self.n_cameras
+        p = self.params
         floor = None
         if self.method.floor and len(to_plane) + len(self._floor_only):
             floor, to_plane = floor_split(segs, to_plane, D2, self.rig.arrays, p, self.scene, self.association == "oracle",
@@ -369,29 +369,12 @@ class Tracker:
             self.counts["segments_dropped_ghost"] += len(self._floor_only)
         if not len(to_plane):
             return None, floor
-        if self.fusion is None:  # the same steps as below in one compiled call
-            return plane_split(segs, to_plane, D2, self.rig.arrays, self.plane_arrays, p, self.association == "oracle",
-                               self.linker.prev_2d, self.linker.prev_seen, self.space,
-                               self._solo_space, self.counts, self.method.outliers_at_mean), floor
-        sub = segs.subset(to_plane)
-        plane_labels = None
-        if self.association == "oracle":
-            plane_labels = np.unique(sub.track2d // C, return_inverse=True)[1]
-        # beyond the paper: segments Eq. 2 says are different people are not fused on the plane
-        apart = None if D2 is None else D2[to_plane][:, to_plane] >= p.cluster_2d  # (two takes: cheaper than np.ix_)
-        # beyond the paper: a view left alone may continue, on the plane, its 2D track's 3D track
-        single = self.linker.may_continue_alone(sub.track2d)
-        pl = plane_stage(sub, self.rig, self.plane_arrays, p.cluster_plane, plane_labels, apart, single)
-        self.counts["segments_to_plane"] += len(to_plane)
-        if not len(pl):
-            return None, floor
-        if self.fusion is not None:  # two-view plane tracklets fused with the plane (.fusion)
-            pl = self.fusion.refine(sub, pl)
-        pl = self._drop_outliers(pl)
-        pl = pl.with_members(np.where(pl.members >= 0, to_plane[np.maximum(pl.members, 0)], -1))  # index segs
-        if self._solo_space is not None:  # the target's hand-over: one view alone only inside S_perf
-            pl = solo_inside(pl, self.scene.performance_space, self.counts)
-        self.counts["plane_tracklets"] += len(pl)
+        # Eq. 2's separations, the one-view continuation, Eq. 5-9, Eq. 4, one view only inside S_perf
+        pl = plane_split(segs, to_plane, D2, self.rig.arrays, self.plane_arrays, p, self.association == "oracle",
+                         self.linker.prev_2d, self.linker.prev_seen, self.space, self._solo_space, self.counts,
+                         self.method.outliers_at_mean)
+        if pl is not None and self.fusion is not None:  # two-view plane tracklets fused with the plane (.fusion)
+            pl = self._drop_outliers(self.fusion.refine(segs, pl))  # (Eq. 4 on the fused points too)
         return pl, floor
 
     def _link(self, start: int, segs: WindowTracklets, tri: WindowTracklets3D | None,
