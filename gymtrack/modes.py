@@ -22,7 +22,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
 
-__all__ = ["Method", "RECIPES", "MODES", "DEFAULT_MODE", "INGREDIENTS", "PLANE_CHOICES", "method_of"]
+__all__ = ["Method", "RECIPES", "MODES", "DEFAULT_MODE", "INGREDIENTS", "PLANE_CHOICES", "method_of", "recipe"]
 
 #: which clusters go to the vertical plane (Eq. 5-9): none (triangulation only; single
 #: tracklets dropped, opposite pairs triangulated), the single views and opposite pairs (the
@@ -120,3 +120,18 @@ def method_of(method: "Method | str") -> Method:
         return RECIPES[method]
     except (KeyError, TypeError):
         raise ValueError(f"unknown mode {method!r}; choose one of {', '.join(MODES)}") from None
+
+
+def recipe(mode: "Method | str", without: "tuple[str, ...] | list[str]" = (), adding: "tuple[str, ...] | list[str]" = ()) -> Method:
+    """The recipe ``mode`` with the ingredients ``without`` switched off and those of ``adding``
+    as cascade+ has them (the command line's ``--without`` / ``--adding``); ValueError naming an
+    unknown mode or ingredient."""
+    m = method_of(mode)
+    for name in (*without, *adding):
+        if name not in INGREDIENTS:
+            raise ValueError(f"unknown ingredient {name!r}; choose from {', '.join(INGREDIENTS)}")
+    for name in without:
+        m = m.without(name)
+    for name in adding:
+        m = m.adding(name)
+    return m

@@ -183,3 +183,24 @@ def test_hold_seconds_holds_no_end_box_at_a_low_frame_rate(rings, beam_3fps):
     assert Tracker(*beam_3fps[:2], PLUS).hold == 0 and Tracker(*beam_3fps[:2], PLUS.without("hold_seconds")).hold == 2
     assert not _same(on, off)
     assert _same(_run(rings, PLUS, "rings"), _run(rings, PLUS.without("hold_seconds"), "rings"))  # 30 fps: max_age
+
+
+# ----------------------------------------------------------------------------- the command line
+def test_track_command_switches_an_ingredient_off(tmp_path):
+    import json
+
+    from typer.testing import CliRunner
+
+    from gymtrack.cli import app
+
+    routine = tmp_path / "routine"
+    simulate_routine("still_rings", n_cam=4, seed=0, seconds=10, out=routine)
+    r = CliRunner().invoke(app, ["track", str(routine), "--out", str(tmp_path / "out"), "--without", "floor"])
+    assert r.exit_code == 0, r.output
+    s = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert s["mode"] == "cascade+ -floor" and s["recipe"]["floor"] is False and s["recipe"]["ghost_test"] is True
+    assert s["floor_tracklets"] == 0 and "floor_single_view" not in s
+    bad = CliRunner().invoke(app, ["track", str(routine), "--out", str(tmp_path / "bad"), "--without", "flor"])
+    # (the installed command turns an InputError into one line and exit status 2)
+    assert isinstance(bad.exception, InputError) and "unknown ingredient 'flor'" in str(bad.exception)
+    assert not (tmp_path / "bad").exists()  # nothing written
