@@ -21,8 +21,8 @@ paper's behaviour.
 window's linked tracklets and the 2D tracks they were made of, the live tracks' last frames,
 the lost tracks (may still be re-linked) and the ended ones (for the target stage, Eq. 13).
 Beyond the paper, a cascade here too: candidates of several views link first; one-view plane
-tracklets only to what is left, and only to continue a track (never to start one). ``cascade+``
-(issue 12): a duplicate track born beside an older one hands the older id on when linking
+tracklets only to what is left, and only to continue a track (never to start one). ``keep_older``
+(beyond the paper): a duplicate track born beside an older one hands the older id on when linking
 continued the duplicate instead (:meth:`WindowLinker._keep_older`).
 """
 
@@ -151,7 +151,7 @@ def merge_overlaps(
     over the known ones). The merged source is the best of the parts (triangulation <
     plane < interpolated), ``n_views`` the largest. Returns rows sorted by (frame, track_id).
 
-    ``best_only`` (``cascade+``, beyond the paper: issue 12): where one window's estimate is an
+    ``best_only`` (the recipe's ``best_estimates``, beyond the paper): where one window's estimate is an
     over-determined triangulation (three or more views) it is the estimate; the rest are
     averaged as in Eq. 12. When one window triangulated three views of a person and the next
     had only an opposite pair on the plane or two views (a view's segment lost to a wrong
@@ -186,7 +186,7 @@ class WindowLinker:
     long a lost track may be re-linked (0: the paper); max_speed: metres per frame, clips a lost
     track's velocity; counts: counter dict the links are counted in (``links``, ``relinks``,
     ``plane_single_view``, ``plane_single_view_unlinked``: the one-view tracklets, of the plane
-    and, in ``cascade+``, of the floor, that continued a track or were dropped).
+    and, with the floor hypothesis, of the floor, that continued a track or were dropped).
 
     Use: ``linked = linker.step(tracklets, track2d, solo)`` once per window, in order.
     State: the previous window's tracklets (M, W), and one entry per live, lost or ended track
@@ -214,7 +214,7 @@ class WindowLinker:
         self.prev_2d = np.zeros(0, np.int64)
         self.prev_seen = np.zeros(0, np.int64)  # 2D tracks of the previous window's segments
         self._prev_first_new = 0  # the first track id the previous window started (younger ids: born there)
-        # cascade+: :func:`tracklet_ends` of ``prev``'s rows when the motion link computed them
+        # :func:`tracklet_ends` of ``prev``'s rows when the motion link computed them
         # (the tracker hands them over after each step; None: computed here)
         self.prev_ends: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 

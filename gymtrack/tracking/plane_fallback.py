@@ -20,8 +20,8 @@ Shared frames are frames where both segments were observed (as for Eq. 2, see
 :mod:`.clustering`); the fused tracklet covers every frame where a member is valid.
 
 The tracker runs this stage through :func:`plane_split`: the same stage with its tracker-side
-steps (Eq. 2's separations, the one-view continuation, Eq. 4; ``cascade+``, beyond the paper,
-issue 12: Eq. 4 by place and the one-view tracklets' performance-space test) in the same
+steps (Eq. 2's separations, the one-view continuation, Eq. 4; beyond the paper, as the recipe
+says: Eq. 4's space test on the mean and the one-view tracklets' performance-space test) in the same
 compiled call.
 
 Speed: a window hands this stage a few segments, where numpy's per-call overhead dominated,
@@ -112,7 +112,7 @@ def plane_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | No
     track's 3D track when that 2D track was a member of the previous window's tracklets
     (``prev_2d``) or is new (not among ``prev_seen``); Eq. 4 in ``tracking_space``
     (:func:`.reconstruct.outliers`; ``at_mean``: the space test on the mean, :func:`.reconstruct.outliers_at_mean`);
-    ``cascade+`` (``performance_space`` given): a one-view tracklet is kept only while its points
+    ``performance_space`` given (the recipe's ``solo_inside``): a one-view tracklet is kept only while its points
     stay inside it. Returns the plane tracklets (``members`` index
     ``segs``), None when the stage fused nothing; counts as the numpy path counts them."""
     C = len(rig.K)
