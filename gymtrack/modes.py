@@ -1,20 +1,137 @@
-"""The tracker's modes: the paper's method, its ablation (Table 4) and the mode beyond it.
+"""The tracker's recipes: each choice the tracker makes, named, and the modes as rows of one table.
 
-Paper: Section III-C and Table 4. ``cascade`` is the paper's method (triangulation, then the
-vertical plane for single views and opposite pairs); ``triangulation`` and ``plane`` are its
-ablation; ``cascade+`` goes beyond the paper (issue 12: the floor hypothesis, motion links,
-duplicate exclusion, opt-in ray/plane fusion and online plane refinement; see
-:mod:`gymtrack.tracking.tracker`). A plain module of constants, so that the command line can name
-the default without importing the tracker.
+Paper: Section III-C and Table 4. A :class:`Method` is a frozen recipe: one field per choice the
+:class:`~gymtrack.tracking.tracker.Tracker` makes (its *ingredients*); the stages get these
+choices as plain arguments, so no stage tests a mode's name. :data:`RECIPES` names four of them:
+
+* ``cascade``: the paper's method (triangulation, then the vertical plane for single views and
+  opposite pairs);
+* ``triangulation`` and ``plane``: its ablation (Table 4): no plane stage, or every segment to it;
+* ``cascade+``: the cascade and every ingredient beyond the paper (the floor hypothesis, the
+  floor's ghost test, Eq. 4 on the tracklet's mean, motion links, the image-motion tracker at low
+  frame rates, duplicate exclusion, the older track kept, Eq. 12 over the best-observed estimates,
+  one view alone only inside the performance space, the shorter end-box hold; ray/plane fusion and
+  online plane refinement where the scene asks for them).
+
+``gymtrack benchmark --ablation`` switches cascade+'s ingredients off one at a time and adds
+each to the cascade (:data:`INGREDIENTS`). A plain module (no numpy), so that the command line can
+name the recipes without importing the tracker.
 """
 
 from __future__ import annotations
 
-__all__ = ["MODES", "DEFAULT_MODE"]
+from dataclasses import dataclass, fields, replace
 
-MODES: tuple[str, ...] = ("cascade", "triangulation", "plane", "cascade+")
-#: the mode a Tracker, the offline runners, batch and the command line use unless told otherwise:
-#: ``cascade+`` since the benchmark met every target of issue 12 in one run (all people's MOTA /
-#: IDF1, WILDTRACK, the target no worse than the cascade, >= 0.85 x triangulation's speed); the
-#: paper's method stays ``mode="cascade"``
+__all__ = ["Method", "RECIPES", "MODES", "DEFAULT_MODE", "INGREDIENTS", "PLANE_CHOICES", "method_of", "recipe"]
+
+#: which clusters go to the vertical plane (Eq. 5-9): none (triangulation only; single
+#: tracklets dropped, opposite pairs triangulated), the single views and opposite pairs (the
+#: cascade), or all segments (no clustering, no triangulation)
+PLANE_CHOICES = ("none", "rest", "all")
+
+
+@dataclass(frozen=True)
+class Method:
+    """One recipe of the tracker (every field a choice a stage makes; the paper's cascade by default).
+
+    plane: ``none`` | ``rest`` | ``all`` (:data:`PLANE_CHOICES`).
+    image_motion: the per-view tracker links by IoU *and* predicted image motion where the frame
+        rate is low enough that people move more than the prediction noise between frames
+        (:mod:`gymtrack.tracking.single_view_motion`); else the paper's IoU tracker.
+    outliers_at_mean: Eq. 4's space test on the tracklet's mean position (else on every point);
+        the speed test is the paper's either way.
+    floor: the floor hypothesis (:mod:`gymtrack.tracking.floor`): people whose views agree on the
+        floor z = 0 are put there before the apparatus plane; a floor tracklet whose 2D tracks all
+        belonged to one track continues it.
+    ghost_test: two-view triangulated clusters floating above the floor off the apparatus are
+        dropped as wrong pairs (:func:`gymtrack.tracking.floor.drop_floor_ghosts`).
+    fusion: two-view clusters fused with the plane by their uncertainty
+        (:mod:`gymtrack.tracking.fusion`), where the scene asks for it (``params.fuse_plane``).
+    motion_link: a view's new 2D track continues the 3D track it lost there when it lies at the
+        track's projected prediction (:mod:`gymtrack.tracking.motion_link`).
+    keep_older: a track born beside an older one continues as the older one
+        (:meth:`gymtrack.tracking.linking.WindowLinker.step`).
+    exclusion: reported points superseded by a later window or within 0.5 m of an older track
+        are left out (:mod:`gymtrack.tracking.exclusion`; the target keeps every point).
+    best_estimates: Eq. 12 averages only a frame's best-observed window estimates.
+    solo_inside: a one-view plane tracklet is kept only inside the performance space.
+    refine_plane: the apparatus plane refitted online from the tracker's own points
+        (:mod:`gymtrack.tracking.plane_refine`), where the scene asks for it
+        (``params.refine_plane`` or ``planes: auto``).
+    hold_seconds: how long a segment's end box is held beyond its last observation, capped at
+        ``params.max_age`` frames; None: ``max_age`` frames (the paper's).
+    name: what results and reports call it.
+    """
+
+    plane: str = "rest"
+    image_motion: bool = False
+    outliers_at_mean: bool = False
+    floor: bool = False
+    ghost_test: bool = False
+    fusion: bool = False
+    motion_link: bool = False
+    keep_older: bool = False
+    exclusion: bool = False
+    best_estimates: bool = False
+    solo_inside: bool = False
+    refine_plane: bool = False
+    hold_seconds: float | None = None
+    name: str = "custom"
+
+    def __post_init__(self) -> None:
+        if self.plane not in PLANE_CHOICES:
+            raise ValueError(f"Method.plane must be one of {PLANE_CHOICES}, got {self.plane!r}")
+
+    def without(self, ingredient: str) -> "Method":
+        """This recipe with one ingredient switched off (named ``<name> -<ingredient>``)."""
+        return replace(self, **{ingredient: _OFF[ingredient]}, name=f"{self.name} -{ingredient}")
+
+    def adding(self, ingredient: str, like: "Method | None" = None) -> "Method":
+        """This recipe with one ingredient as ``like`` (default: cascade+) has it (``<name> +<ingredient>``)."""
+        like = like or RECIPES["cascade+"]
+        return replace(self, **{ingredient: getattr(like, ingredient)}, name=f"{self.name} +{ingredient}")
+
+
+#: the value of each ingredient when it is off (the paper's choice)
+_OFF = {f.name: f.default for f in fields(Method) if f.name not in ("plane", "name")}
+#: cascade+'s ingredients beyond the paper, in the ablation's order
+INGREDIENTS: tuple[str, ...] = tuple(_OFF)
+
+#: the named recipes; a Tracker, the offline runners, batch and the command line take these names
+RECIPES: dict[str, Method] = {
+    "cascade": Method(name="cascade"),
+    "triangulation": Method(plane="none", name="triangulation"),
+    "plane": Method(plane="all", name="plane"),
+    "cascade+": Method(image_motion=True, outliers_at_mean=True, floor=True, ghost_test=True, fusion=True,
+                       motion_link=True, keep_older=True, exclusion=True, best_estimates=True, solo_inside=True,
+                       refine_plane=True, hold_seconds=0.2, name="cascade+"),
+}
+MODES: tuple[str, ...] = tuple(RECIPES)
+#: the recipe a Tracker, the offline runners, batch and the command line use unless told
+#: otherwise; the paper's method stays ``mode="cascade"``
 DEFAULT_MODE = "cascade+"
+
+
+def method_of(method: "Method | str") -> Method:
+    """A recipe, or the recipe of a name in :data:`RECIPES`; ValueError for another name."""
+    if isinstance(method, Method):
+        return method
+    try:
+        return RECIPES[method]
+    except (KeyError, TypeError):
+        raise ValueError(f"unknown mode {method!r}; choose one of {', '.join(MODES)}") from None
+
+
+def recipe(mode: "Method | str", without: "tuple[str, ...] | list[str]" = (), adding: "tuple[str, ...] | list[str]" = ()) -> Method:
+    """The recipe ``mode`` with the ingredients ``without`` switched off and those of ``adding``
+    as cascade+ has them (the command line's ``--without`` / ``--adding``); ValueError naming an
+    unknown mode or ingredient."""
+    m = method_of(mode)
+    for name in (*without, *adding):
+        if name not in INGREDIENTS:
+            raise ValueError(f"unknown ingredient {name!r}; choose from {', '.join(INGREDIENTS)}")
+    for name in without:
+        m = m.without(name)
+    for name in adding:
+        m = m.adding(name)
+    return m

@@ -91,7 +91,7 @@ def test_ratios_and_claims(rows):
 def test_write_report_files(rows, tmp_path):
     files = write_report(tmp_path, rows, meta={"suite": "fake"}, plots=["fig6_balance_beam.png"])
     md = files["report"].read_text()
-    for heading in ("Table 3", "Table 5", "Table 6", "Ratios", "Targets of the issue", "Failed runs"):
+    for heading in ("Table 3", "Table 5", "Table 6", "Ratios", "## Targets", "Failed runs"):
         assert heading in md
     assert "boom: no plane" in md and "fig6_balance_beam.png" in md
     assert "| cascade | 1.50% |" in md  # Table 3 FR block, BB n_cam=2 pooled 0.015

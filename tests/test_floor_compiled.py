@@ -227,7 +227,7 @@ def test_outliers_then_ghosts_in_one_call_match_numpy(seed):
 def _outliers_then_ghosts(seed):
     """The tracker's call: Eq. 4 by place first (counted), then the ghost test with the owners'
     confirmation on what is left, against the numpy outlier test and ghost test in that order."""
-    from reference.reconstruct import outliers_by_place_numpy
+    from reference.reconstruct import outliers_at_mean_numpy
 
     segs, rig, tri, params, scene = _ghost_case(seed)
     rng = np.random.default_rng(500 + seed)
@@ -240,7 +240,7 @@ def _outliers_then_ghosts(seed):
     counts, counts_r = dict.fromkeys(keys, 0), dict.fromkeys(keys, 0)
     kept, out = floor.drop_floor_ghosts(tri, segs, rig.arrays, PLANES, params, scene, counts, (prev_2d, prev_owner),
                                         (tspace, speed))
-    bad = outliers_by_place_numpy(tri.xyz, tri.valid, tspace, speed)
+    bad = outliers_at_mean_numpy(tri.xyz, tri.valid, tspace, speed)
     counts_r["tracklets_outliers"] += int(bad.sum())
     kept_r, out_r = ref.drop_floor_ghosts(tri.subset(~bad), segs, rig.arrays, PLANES, params, scene, counts_r, owner)
     assert counts == counts_r and out.tolist() == out_r.tolist()

@@ -253,9 +253,9 @@ def test_plane_split_matches_the_cascades_path_around_the_stage(plus):
             counts, counts_r = dict.fromkeys(keys, 0), dict.fromkeys(keys, 0)
             ps = pspace if plus else None
             got = plane_split(segs, to_plane, d2, RIG.arrays, PlaneArrays.from_planes(planes), params, oracle, prev_2d,
-                              prev_seen, tspace, ps, counts, by_place=plus)
+                              prev_seen, tspace, ps, counts, at_mean=plus)
             want = plane_split_numpy(segs, to_plane, d2, RIG, planes, params, oracle, prev_2d, prev_seen, tspace, ps,
-                                     counts_r, by_place=plus)
+                                     counts_r, at_mean=plus)
             assert counts == counts_r and (got is None) == (want is None)
             if got is not None:
                 same_tracklets(got, want)

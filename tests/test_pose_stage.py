@@ -144,3 +144,17 @@ def test_demo_prints_the_pose_error_of_both_methods():
     block = r.output[r.output.index("Target's 3D pose"):]
     assert "MPJPE" in block and "PCK" in block and "cascade" in block and "triangulation" in block
     assert block.count(" mm") >= 4
+
+
+def test_demo_pose_table_counts_a_frame_without_a_pose_as_a_miss():
+    from gymtrack.cli.pose import demo_pose_table
+    from gymtrack.simulate import simulate_routine
+
+    sim = simulate_routine("uneven_bars", n_cam=2, seed=0, seconds=20)  # (the demo's: triangulation poses ~90 %)
+    res = track_detections(sim.rig, sim.scene, sim.detections, mode="triangulation")
+    perf = sim.frames[sim.performing & np.all(np.isfinite(sim.target_centre), axis=1)]
+    t = demo_pose_table(sim, {"triangulation": res}, perf)
+    head = [c.header for c in t.columns]
+    assert head[1:3] == ["MPJPE", "PCK@150mm (all performing frames)"]
+    pck, share = (float(t.columns[k]._cells[0].rstrip("%")) for k in (2, 4))
+    assert share < 100 and pck <= share  # triangulation misses frames: PCK over all of them cannot exceed the share

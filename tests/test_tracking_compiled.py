@@ -17,14 +17,14 @@ from gymtrack.geometry.triangulation import triangulate_views as triangulate_vie
 from gymtrack.tracking._kernels import windows as window_kernels
 from gymtrack.tracking.clustering import complete_linkage, tracklet_distances
 from gymtrack.tracking.linking import link_distances, merge_overlaps
-from gymtrack.tracking.reconstruct import cluster_members, outliers, outliers_by_place, triangulate_clusters
+from gymtrack.tracking.reconstruct import cluster_members, outliers, outliers_at_mean, triangulate_clusters
 from gymtrack.tracking.single_view import IoUTracker, assign, iou_matrix
 from gymtrack.tracking.types import WindowTracklets
 from gymtrack.tracking.windows import fill_missing
 from reference.clustering import complete_linkage_numpy, complete_linkage_sequential, tracklet_distances_numpy
 from reference.linking import link_distances_numpy, merge_overlaps_numpy
 from reference.plane import candidate_distances, candidate_distances_numpy
-from reference.reconstruct import outliers_by_place_numpy, outliers_numpy, triangulate_clusters_numpy
+from reference.reconstruct import outliers_at_mean_numpy, outliers_numpy, triangulate_clusters_numpy
 from reference.single_view import IoUTrackerNumpy
 from reference.windows import fill_missing as fill_missing_numpy
 
@@ -192,8 +192,8 @@ def test_outliers_kernel(rng, M):
     space = np.array([-0.3, -0.3, -0.3, 0.3, 0.3, 0.3])
     for speed in (0.02, 0.05, 1.0):
         assert np.array_equal(outliers(xyz, valid, space, speed), outliers_numpy(xyz, valid, space, speed))
-        assert np.array_equal(outliers_by_place(xyz, valid, space, speed),
-                              outliers_by_place_numpy(xyz, valid, space, speed))
+        assert np.array_equal(outliers_at_mean(xyz, valid, space, speed),
+                              outliers_at_mean_numpy(xyz, valid, space, speed))
 
 
 @pytest.mark.parametrize("shape", [(0, 3), (3, 0), (1, 1), (8, 11)])

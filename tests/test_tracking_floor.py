@@ -10,7 +10,7 @@ import numpy as np
 from conftest import make_detections, ring_rig, simple_scene
 from gymtrack.tracking.floor import drop_floor_ghosts, floor_candidates, floor_stage
 from gymtrack.tracking.offline import track_detections
-from gymtrack.tracking.tracker import MODES
+from gymtrack.modes import MODES
 from gymtrack.tracking.types import WindowTracklets, WindowTracklets3D
 
 W = 6
@@ -126,21 +126,6 @@ def test_cascade_plus_tracks_a_walker_off_the_plane():
     assert np.abs(res.tracks.xyz[:, :2] - traj[0, res.tracks.frame - res.tracks.frame.min(), :2]).max() < 0.3
 
 
-def test_one_view_continuation_only_inside_the_performance_space():
-    from gymtrack.tracking.floor import solo_inside
-
-    xyz = np.zeros((3, W, 3))
-    xyz[1, :, 0] = np.linspace(2.0, 4.0, W)  # one view alone, walking out of the space (x1 = 3)
-    xyz[2, :, 0] = 5.0  # two views outside: not a continuation, not judged here
-    members = np.array([[0, -1], [1, -1], [2, 3]])
-    v = np.ones((3, W), bool)
-    pl = WindowTracklets3D(0, xyz, np.ones((3, W)), np.zeros((3, W)), v, np.zeros((3, W), np.int8),
-                           np.ones((3, W), np.int8), members, np.full(3, -1))
-    counts = {"plane_single_view_outside": 0}
-    kept = solo_inside(pl, np.array([-3.0, -3.0, 0.0, 3.0, 3.0, 4.5]), counts)
-    assert kept.members.tolist() == [[0, -1], [2, 3]] and counts["plane_single_view_outside"] == 1
-
-
 def test_floor_tracklet_continues_the_track_of_its_views_2d_tracks():
     from collections import defaultdict
 
@@ -155,7 +140,7 @@ def test_floor_tracklet_continues_the_track_of_its_views_2d_tracks():
 
     for by_2d, floor, same in ((True, True, True), (True, False, False), (False, True, False)):
         counts = defaultdict(int)
-        linker = WindowLinker(5, 0.6, 0, 1.0, counts, by_2d=by_2d)
+        linker = WindowLinker(5, 0.6, 0, 1.0, counts, floor_by_2d=by_2d)
         track2d = np.array([10, 11])
         a = linker.step(window(0, 0.0), track2d, np.zeros(1, bool), np.zeros(1, bool))
         b = linker.step(window(5, 3.0), track2d, np.zeros(1, bool), np.array([floor]))  # 3 m away: no 3D link

@@ -10,12 +10,12 @@ import numpy as np
 from conftest import as_raw, make_detections, ring_rig, simple_scene
 from gymtrack.tracking.linking import merge_overlaps
 from gymtrack.tracking.offline import track_detections
-from gymtrack.tracking.reconstruct import outliers, outliers_by_place
+from gymtrack.tracking.reconstruct import outliers, outliers_at_mean
 
 SPACE = np.array([-4.0, -4.0, 0.0, 4.0, 4.0, 4.5])  # simple_scene's tracking space
 
 
-def test_outliers_by_place_judges_the_mean_position_and_keeps_eq4_speed():
+def test_outliers_at_mean_judges_the_mean_position_and_keeps_eq4_speed():
     W = 8
     xyz = np.zeros((4, W, 3))
     xyz[..., 2] = 0.9
@@ -26,11 +26,11 @@ def test_outliers_by_place_judges_the_mean_position_and_keeps_eq4_speed():
     valid[3] = False  # nothing valid: an outlier, as in Eq. 4
     mean = xyz[:, :, 1].mean(axis=1)
     assert mean[0] <= 4.0 < mean[1]  # the independent check of what the rule sees
-    assert outliers_by_place(xyz, valid, SPACE, 1.0).tolist() == [False, True, True, True]
+    assert outliers_at_mean(xyz, valid, SPACE, 1.0).tolist() == [False, True, True, True]
     assert outliers(xyz, valid, SPACE, 1.0).tolist() == [True, True, True, True]  # the paper's: any point
     # invalid points do not count in the mean
     xyz[0, 0, 1], valid[0, 0] = 50.0, False
-    assert not outliers_by_place(xyz, valid, SPACE, 1.0)[0]
+    assert not outliers_at_mean(xyz, valid, SPACE, 1.0)[0]
 
 
 def test_a_person_at_the_tracking_space_boundary_is_tracked_by_cascade_plus():
@@ -100,9 +100,9 @@ def test_a_duplicate_continued_instead_of_the_older_track_hands_back_the_older_i
         return WindowTracklets3D(start, xyz, np.full((M, 10), 1.8), np.zeros((M, 10)), v, np.zeros((M, 10), np.int8),
                                  np.full((M, 10), 2, np.int8), members, np.full(M, -1))
 
-    for by_2d, expect in ((True, 0), (False, 1)):
+    for older, expect in ((True, 0), (False, 1)):
         counts = defaultdict(int)
-        linker = WindowLinker(5, 0.6, 0, 1.0, counts, by_2d=by_2d)
+        linker = WindowLinker(5, 0.6, 0, 1.0, counts, keep_older=older)
         none = np.zeros(1, bool)
         a = linker.step(window(0, [0.0]), np.array([10, 11]), none, none)
         # window 5: the person's views split into two clusters, 0.2 m apart: a duplicate track is born
@@ -111,10 +111,10 @@ def test_a_duplicate_continued_instead_of_the_older_track_hands_back_the_older_i
         # window 10: one cluster, nearer the duplicate (Eq. 10 links it to track 1, track 0 is not continued)
         c = linker.step(window(10, [0.25]), np.array([10, 21]), none, none)
         assert c.track_id.tolist() == [expect]  # cascade+ keeps the older identity
-        assert counts["links_older"] == int(by_2d)
+        assert counts["links_older"] == int(older)
     # a young track far from the lost one is not a duplicate: no hand-back
     counts = defaultdict(int)
-    linker = WindowLinker(5, 0.6, 0, 1.0, counts, by_2d=True)
+    linker = WindowLinker(5, 0.6, 0, 1.0, counts, keep_older=True)
     linker.step(window(0, [0.0]), np.array([10, 11]), none, none)
     linker.step(window(5, [0.0, 2.0]), np.array([10, 11, 20, 21]), np.zeros(2, bool), np.zeros(2, bool))
     c = linker.step(window(10, [2.05]), np.array([20, 21]), none, none)

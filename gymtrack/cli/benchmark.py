@@ -11,6 +11,10 @@ performances x n_cam 2, 3, 4 = 84 routine folders, apparatus simulated in parall
 ``<out>/suite/suite.json`` already exists, and benchmarks that. ``--per-apparatus 20 --seconds 0``
 gives the paper's 140 performances (each seen with n_cam = 2, 3 and 4) at the simulator's lengths.
 
+``--ablation``: instead, cascade+'s ablation (:mod:`gymtrack.eval.ablation`): each ingredient beyond
+the paper switched off alone in cascade+ and added alone to the cascade, on the suite and on
+WILDTRACK, written as ``ablation.md`` and ``ablation.json`` under ``--out``.
+
 ``--check``: exit status 1 when a target of :func:`gymtrack.eval.aggregate.claims` fails or a
 run fails (for CI); without it the status is 0 whatever the results.
 """
@@ -103,6 +107,9 @@ def benchmark(
     no_pose: bool = typer.Option(False, "--no-pose", help="skip the target's 3D pose (Fig. 7 table, lifting ablation)"),
     mvor: Optional[Path] = typer.Option(None, "--mvor", help="MVOR folder for the real-keypoints pose section (default: $GYMTRACK_MVOR or shared/data/mvor above the project; skipped with a note if absent)"),
     check: bool = typer.Option(False, "--check", help="exit with status 1 when a target (claim) fails or a run fails"),
+    ablation: bool = typer.Option(False, "--ablation", help="instead of the methods: cascade+ with each ingredient beyond "
+                                  "the paper switched off alone, and the cascade with each added alone (target FR / AED, "
+                                  "all people's MOTA / IDF1 per n_cam, WILDTRACK): OUT/ablation.md"),
 ) -> None:
     """Benchmark the tracker's modes, the MvPT-like baseline and the GT-association oracle (paper Tables 3, 5, 6)."""
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
@@ -131,6 +138,8 @@ def benchmark(
 
         runner = dask_runner(n_jobs, scheduler, log=lambda s: console.print("  " + s, highlight=False))
     where = f"on the Dask scheduler {scheduler}" if scheduler else f"{n_jobs} parallel jobs"
+    if ablation:
+        return _ablation(specs, out, n_jobs, runner, where, not no_wildtrack, wildtrack)
     console.print(f"{len(specs)} routines x {len(method_list)} methods, {where}")
     with Progress(TextColumn("[bold]benchmark"), BarColumn(), MofNCompleteColumn(), TextColumn("routines"),
                   TimeElapsedColumn(), TextColumn("{task.description}"), console=console, transient=True) as bar:
@@ -173,7 +182,7 @@ def benchmark(
         from gymtrack.eval.render import fmt
 
         plus = plus_claims(run.rows, wt)
-        console.print(claims_table("Targets beyond the paper (cascade+, issue 12)", plus,
+        console.print(claims_table("Targets beyond the paper (cascade+)", plus,
                                    lambda v: fmt(v, "ratio") if abs(v) < 100 or not np.isfinite(v) else fmt(v, "fps")))
         found = found + plus
     if not no_pose:
@@ -192,3 +201,38 @@ def benchmark(
             raise typer.Exit(1)
         console.print(f"[green]--check passed:[/] {sum(c.status == 'PASS' for c in found)} targets met "
                       f"({sum(c.status == 'n/a' for c in found)} n/a)", highlight=False)
+
+
+def _ablation(specs, out: Path, n_jobs: int, runner, where: str, with_wildtrack: bool, wildtrack: Optional[Path]) -> None:
+    """``--ablation``: the recipes of :func:`gymtrack.eval.ablation.ablation_recipes` on the suite
+    (and on WILDTRACK, at ``wildtrack`` or the configured place), ``ablation.md`` / ``ablation.json`` under ``out``."""
+    import json
+
+    from gymtrack.eval.ablation import ablation_markdown, ablation_recipes, ablation_table
+    from gymtrack.eval.benchmark import run_suite
+
+    recipes = ablation_recipes()
+    console.print(f"ablation: {len(specs)} routines x {len(recipes)} recipes, {where}")
+    run = run_suite(specs, recipes, jobs=n_jobs, mot=True, pose=False, runner=runner,
+                    progress=lambda k, n, name: console.print(f"  {name} ({k}/{n})", highlight=False))
+    wt = None
+    if with_wildtrack:
+        from gymtrack.eval.config import DEFAULT_CONFIG
+        from gymtrack.eval.wildtrack import WildtrackSetup, run_wildtrack
+
+        console.print("WILDTRACK ...")
+        wt = run_wildtrack(DEFAULT_CONFIG.wildtrack if wildtrack is None else wildtrack, WildtrackSetup(modes=tuple(recipes)))
+        if not wt.get("available"):
+            console.print(f"[yellow]{wt['note']}[/]")
+    table = ablation_table(run.rows, recipes, wt)
+    failed = [r for r in run.rows if r.get("error")]
+    note = (lambda: f"{len(specs)} routines, {len(failed)} failed runs.")
+    out.mkdir(parents=True, exist_ok=True)
+    md = ablation_markdown(table, note)
+    (out / "ablation.md").write_text(md)
+    (out / "ablation.json").write_text(json.dumps({"table": table, "rows": run.rows}, indent=1, default=str))
+    console.print(md, highlight=False)
+    if failed:
+        console.print(f"[red]{len(failed)} runs failed[/], e.g. {failed[0]['routine']} / {failed[0]['method']}: "
+                      f"{failed[0]['error']}")
+    console.print(f"ablation: [bold]{out / 'ablation.md'}[/] ({run.seconds:.0f} s)")

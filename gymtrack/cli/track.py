@@ -1,6 +1,7 @@
 """``gymtrack track`` and ``gymtrack demo``: run the tracker of Section III.
 
-* ``gymtrack track <routine> --out <out> [--mode cascade|triangulation|plane]`` reads a routine
+* ``gymtrack track <routine> --out <out> [--mode cascade|triangulation|plane] [--without floor]
+  [--adding floor]`` (a recipe's ingredients switched off or on alone, :class:`gymtrack.modes.Method`) reads a routine
   folder (with the calibration options of ``info``: ``--units``, ``--calibration-format``),
   tracks it with a progress bar, writes the outputs of ``shared/formats.md``
   (:func:`gymtrack.formats.outputs.write_outputs`) atomically (:mod:`gymtrack.formats.atomic`:
@@ -29,7 +30,7 @@ from gymtrack.cli import app
 from gymtrack.cli.options import (calibration_format_option, overwrite_option, read_routine, silent_seconds_option,
                                   strict_option, units_option)
 from gymtrack.cli.report import REPORTER, interrupts
-from gymtrack.modes import DEFAULT_MODE, MODES
+from gymtrack.modes import DEFAULT_MODE, INGREDIENTS
 
 console = Console()
 
@@ -85,6 +86,10 @@ def track(
     overwrite: bool = overwrite_option(),
     strict: bool = strict_option(),
     silent_seconds: float = silent_seconds_option(),
+    without: Optional[list[str]] = typer.Option(None, "--without", help="switch this ingredient of the mode off "
+                                                f"(repeat the option): {', '.join(INGREDIENTS)}"),
+    adding: Optional[list[str]] = typer.Option(None, "--adding", help="switch this ingredient on as cascade+ has it "
+                                               "(repeat the option; names as --without)"),
 ) -> None:
     """Track a routine: 3D tracks, per-view boxes and the target gymnast (paper Section III)."""
     from gymtrack.cli.system import compile_notice
@@ -93,9 +98,15 @@ def track(
     from gymtrack.formats.outputs import write_outputs
     from gymtrack.tracking.offline import track_detections
 
-    if mode not in MODES:
-        raise InputError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}", field="--mode")
+    from gymtrack.modes import recipe
+
+    try:
+        method = recipe(mode, without or (), adding or ())
+    except ValueError as e:
+        raise InputError(str(e), field="--without/--adding" if "ingredient" in str(e) else "--mode") from None
     inputs = {"routine": Path(routine).absolute(), "mode": mode, "calibration_format": calibration_format, "units": units}
+    if without or adding:
+        inputs |= {"without": list(without or ()), "adding": list(adding or ())}
     with interrupts(), atomic_output(out, "track", inputs, overwrite=overwrite, protect=[routine]) as staging:
         r, checks = read_routine(routine, calibration_format, units, silent_seconds)
         notice = compile_notice()
@@ -108,7 +119,7 @@ def track(
             def progress(done: int, total: int) -> None:
                 bar.update(task, completed=done, total=total)
 
-            result = track_detections(r.rig, r.scene, r.detections, mode=mode, progress=progress)
+            result = track_detections(r.rig, r.scene, r.detections, mode=method, progress=progress)
         for msg in empty_result_warnings(result.summary):
             REPORTER.warn(msg)
         REPORTER.check_strict(strict)

@@ -64,16 +64,22 @@ class RoutineSpec:
 
 
 # ----------------------------------------------------------------------------- methods
-def run_method(method: str, rig: Rig, scene: Scene, det: Detections, gt: GroundTruth | None = None):
-    """Run one method; returns ``(TrackResult, tracker seconds, extra summary dict)``.
+def method_name(method) -> str:
+    """A method's name in the rows: the name itself, or a recipe's (:class:`gymtrack.modes.Method`) name."""
+    return method if isinstance(method, str) else method.name
+
+
+def run_method(method, rig: Rig, scene: Scene, det: Detections, gt: GroundTruth | None = None):
+    """Run one method (a name, or a tracker recipe :class:`gymtrack.modes.Method`); returns
+    ``(TrackResult, tracker seconds, extra summary dict)``.
 
     The oracle needs ``gt``: its GT matching happens before the clock starts.
     """
     from ..tracking.offline import track_detections
-    from ..modes import MODES
+    from ..modes import MODES, Method
 
     extra: dict = {}
-    if method in MODES:
+    if isinstance(method, Method) or method in MODES:
         t0 = time.perf_counter()
         res = track_detections(rig, scene, det, mode=method)
     elif method == "mvpt":
@@ -168,19 +174,20 @@ def run_routine(spec: RoutineSpec, methods: Sequence[str], keep_trajectories: bo
     for method in order:
         try:
             res, sec, extra = run_method(method, r.rig, r.scene, r.detections, gt)
-            row = {**base, "method": method, "frames": int(res.summary.get("frames", 0)), "seconds": sec,
+            row = {**base, "method": method_name(method), "frames": int(res.summary.get("frames", 0)), "seconds": sec,
                    **evaluate_routine(res, gt, r.scene, r.rig, mot=mot),
                    "target_switches": int(res.summary.get("target_switches", 0)), "error": "", **extra}
             if pgt is not None:
                 row |= pose_columns(method, res, r.rig, r.scene, pgt, seed=spec.seed)
             if keep_trajectories:
-                traj[method] = (res.target.frame, res.target.xyz)
+                traj[method_name(method)] = (res.target.frame, res.target.xyz)
         except Exception as exc:  # one failing method must not lose the others' results
             detail = "".join(traceback.format_exception_only(type(exc), exc)).strip()
-            row = {**base, "method": method, "frames": 0, "seconds": 0.0, "error": detail}
+            row = {**base, "method": method_name(method), "frames": 0, "seconds": 0.0, "error": detail}
         rows.append(row)
     add_common_columns(rows)  # the pose claims' common-frame columns: needs every method's row
-    rows.sort(key=lambda row: list(methods).index(row["method"]))
+    names = [method_name(m) for m in methods]
+    rows.sort(key=lambda row: names.index(row["method"]))
     return {"rows": rows, "trajectories": traj if keep_trajectories else None, "spec": spec.__dict__}
 
 
@@ -310,7 +317,7 @@ def _failed_routine(spec: RoutineSpec, methods: Sequence[str], exc: BaseExceptio
     """The rows of a routine that could not be run at all (unreadable folder, worker died)."""
     msg = " ".join("".join(traceback.format_exception_only(type(exc), exc)).split())
     return {"rows": [{"routine": spec.name, "apparatus": spec.apparatus, "n_cam": spec.n_cam, "seed": spec.seed,
-                      "method": m, "frames": 0, "seconds": 0.0, "error": msg} for m in methods],
+                      "method": method_name(m), "frames": 0, "seconds": 0.0, "error": msg} for m in methods],
             "trajectories": None}
 
 
@@ -325,6 +332,9 @@ def run_suite(
 ) -> BenchmarkRun:
     """Run every method on every routine; one routine = one task of ``runner``.
 
+    methods: names of :data:`.aggregate.METHODS`, or tracker recipes (:class:`gymtrack.modes.Method`,
+    the rows named by their ``name``: the ablation of :mod:`.ablation`).
+
     runner: ``runner(fn, args, on_done)`` calls ``fn(*args[i])`` for every i, wherever it likes,
     and ``on_done(i, result_or_exception)`` as each ends -- the batch machinery's
     :func:`gymtrack.batch.engine.dask_runner` (a LocalCluster or a Dask scheduler); None runs the
@@ -332,7 +342,9 @@ def run_suite(
     jobs: the parallel workers, as recorded in the report (default ``os.cpu_count()`` with a
     runner, 1 without). progress: ``progress(done, total, routine_name)`` after each routine.
     """
-    bad = [m for m in methods if m not in METHODS]
+    from ..modes import Method
+
+    bad = [m for m in methods if not isinstance(m, Method) and m not in METHODS]
     if bad:
         raise InputError(f"unknown method {bad[0]!r}; choose from {', '.join(METHODS)}", field="methods")
     jobs = max(1, int(jobs or (os.cpu_count() if runner else 1) or 1))

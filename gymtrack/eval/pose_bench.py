@@ -337,7 +337,7 @@ def pose_markdown(rows: Sequence[dict], mvor: dict | None = None, config: Benchm
     names = {"cascade_triangulation": "cascade / triangulation", "cascade_oracle": "cascade / oracle",
              "robust_dlt": "robust / dlt", "robust_noplane": "robust / no plane"}
     parts.append(markdown_table(["n_cam"] + [names[k] for k in COMPARISONS], [[n] + [rt(k, n) for k in COMPARISONS] for n in ns]))
-    parts += ["", "**Pose targets of the issue**", ""]
+    parts += ["", "**Pose targets**", ""]
     parts.append(markdown_table(["target", "value", "limit", "result", "detail"],
                                 [[c.name, _f(c.value, "ratio"), _f(c.limit, "ratio"), f"**{c.status}**", c.detail] for c in pose_claims(rows, config)]))
     if mvor:

@@ -114,10 +114,10 @@ def report_markdown(rows: Sequence[dict], meta: dict | None = None, plots: Seque
     parts.append(markdown_table(["n_cam", "FR cascade / triangulation", "AED cascade / triangulation", "AED cascade / oracle"],
                                 [[r["n_cam"], fmt(r["fr_cascade_over_triangulation"], "ratio"), fmt(r["aed_cascade_over_triangulation"], "ratio"),
                                   fmt(r["aed_cascade_over_oracle"], "ratio")] for r in ratios(rows)]))
-    parts += ["", "## Targets of the issue", ""]
+    parts += ["", "## Targets", ""]
     parts.append(_claims_md(claims(rows, config)))
     if plus:
-        parts += ["", "## Targets beyond the paper (cascade+, issue 12)", ""]
+        parts += ["", "## Targets beyond the paper (cascade+)", ""]
         parts.append(_claims_md(plus))
     mot = [r for r in table3(rows)]
     if mot:

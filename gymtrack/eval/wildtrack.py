@@ -67,7 +67,8 @@ class WildtrackSetup:
     gate: float = 1.0
     min_tracklet_boxes: int = 5
     limit: int | None = None  #: annotation files to read (None: all 400)
-    modes: tuple[str, ...] = ("cascade", "cascade+", "triangulation", "plane")
+    #: names of recipes, or recipes (:class:`gymtrack.modes.Method`; reported by their ``name``)
+    modes: tuple = ("cascade", "cascade+", "triangulation", "plane")
 
 
 def noisy_detections(det: Detections, rng: np.random.Generator, setup: WildtrackSetup, image_size=(1920, 1080)) -> tuple[Detections, dict]:
@@ -141,10 +142,11 @@ def run_wildtrack(path: str | Path = DEFAULT_PATH, setup: WildtrackSetup = Wildt
     out = {
         "available": True, "path": str(path), "frames": int(np.unique(gt_frame).size), "cameras": list(rig.names),
         "people": int(np.unique(ann.person_id).size), "person_frames": int(gt_frame.size),
-        "detections": counts, "skipped_annotations": ann.skipped, "setup": setup.__dict__ | {"modes": list(setup.modes)},
+        "detections": counts, "skipped_annotations": ann.skipped, "setup": setup.__dict__ | {"modes": [getattr(m, "name", m) for m in setup.modes]},
         "modes": {},
     }
     for mode in setup.modes:
+        name = getattr(mode, "name", mode)
         t0 = time.perf_counter()
         res = track_detections(rig, scene, det, mode=mode)
         sec = time.perf_counter() - t0
@@ -154,7 +156,7 @@ def run_wildtrack(path: str | Path = DEFAULT_PATH, setup: WildtrackSetup = Wildt
         xy3 = np.c_[tr.xyz[:, :2], np.zeros(len(tr))]
         _, dist = nearest_person(tr.frame, xy3, gt_frame, ann.person_id, np.c_[gt_xy, np.zeros(len(gt_xy))])
         near = int(np.count_nonzero(dist <= setup.gate))
-        out["modes"][mode] = {
+        out["modes"][name] = {
             **m.as_dict(), "tracks": int(np.unique(tr.track_id).size), "points": int(len(tr)),
             "fp_duplicates": max(near - m.matches, 0), "fp_ghosts": int(len(tr) - near),
             "mean_height": float(np.nanmean(tr.xyz[:, 2])) if len(tr) else float("nan"),
@@ -163,7 +165,7 @@ def run_wildtrack(path: str | Path = DEFAULT_PATH, setup: WildtrackSetup = Wildt
             **{k: int(res.summary[k]) for k in LINK_COUNTS if k in res.summary},
         }
         if log:
-            log(f"WILDTRACK {mode}: MOTA {m.mota:.3f} IDF1 {m.idf1:.3f} median error {m.median_distance:.3f} m ({sec:.1f} s)")
+            log(f"WILDTRACK {name}: MOTA {m.mota:.3f} IDF1 {m.idf1:.3f} median error {m.median_distance:.3f} m ({sec:.1f} s)")
     return out
 
 

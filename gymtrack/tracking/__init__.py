@@ -11,7 +11,8 @@
 * :mod:`.identify`        target identification (Eq. 13) and the back-fill (III-D)
 * :mod:`.smoothing`       gap filling and smoothing of the target's trajectory (III-D)
 * :mod:`.target`          the :class:`~.target.TargetStage` and the pose boxes (Eq. 14) (III-D)
-* :mod:`.tracker`         the streaming :class:`Tracker` (Fig. 2) and the offline runners
+* :mod:`.tracker`         the streaming :class:`Tracker` (Fig. 2), run by a recipe (:class:`gymtrack.modes.Method`)
+* :mod:`.offline`         the offline runners
 * :mod:`.types`           the columnar types of every level
 * :mod:`._kernels`        the compiled loops of every stage, one module per stage (:func:`warm_up` compiles them)
 """
@@ -19,14 +20,15 @@
 from ._kernels import warm_up
 from .clustering import complete_linkage, tracklet_distances
 from .offline import track_detections, track_routine
-from .tracker import ASSOCIATIONS, MODES, Tracker
+from ..modes import MODES, RECIPES, Method
+from .tracker import ASSOCIATIONS, Tracker
 from .types import (
     INTERPOLATED, PLANE, SOURCE_NAMES, TRIANGULATION, Target, TrackerOutput, Tracks3D, TrackResult, WindowTracklets,
     WindowTracklets3D,
 )
 
 __all__ = [
-    "Tracker", "track_detections", "track_routine", "MODES", "ASSOCIATIONS", "complete_linkage", "tracklet_distances",
+    "Tracker", "track_detections", "track_routine", "Method", "RECIPES", "MODES", "ASSOCIATIONS", "complete_linkage", "tracklet_distances",
     "warm_up",
     "Tracks3D", "Target", "TrackerOutput", "TrackResult", "WindowTracklets", "WindowTracklets3D",
     "TRIANGULATION", "PLANE", "INTERPOLATED", "SOURCE_NAMES",

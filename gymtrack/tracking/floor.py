@@ -128,17 +128,18 @@ def _floor_stage(start: int, box, valid, observed, camera, rig: RigArrays, thres
 
 
 def floor_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | None, rig: RigArrays, params, scene,
-                oracle: bool, counts: dict, floor_only: np.ndarray | None = None
+                oracle: bool, counts: dict, floor_only: np.ndarray | None = None, at_mean: bool = True
                 ) -> tuple[WindowTracklets3D | None, np.ndarray]:
-    """The tracker's hook (``cascade+``): the floor hypothesis for the segments ``to_plane``
+    """The tracker's hook (the recipe's ``floor``): the floor hypothesis for the segments ``to_plane``
     (sorted indices into ``segs``); Eq. 2's separations (``D2`` (K, K) or None) and an oracle's
     ids (``oracle``: ``track2d // C``) hold here as on the plane. Returns the floor tracklets
     after the outlier test (``members`` index ``segs``; None when none) and the segments left
     for the apparatus plane. ``floor_only``: segments that may go to the floor only (the ghosts'
     of :func:`drop_floor_ghosts`; dropped, and counted, when the floor does not take them).
+    ``at_mean``: Eq. 4's space test on the tracklet's mean (else on every point).
 
     One kernel call (:func:`._kernels.floor.floor_split`: the segments taken out of the
-    window's arrays, Eq. 2's separations, :func:`floor_stage`'s kernel and Eq. 4 by place):
+    window's arrays, Eq. 2's separations, :func:`floor_stage`'s kernel and Eq. 4):
     the Python around it cost more than the work (numpy reference: ``tests/reference/floor.py``)."""
     fo = _NO_INDEX if floor_only is None else floor_only
     if not len(to_plane) + len(fo):
@@ -146,7 +147,8 @@ def floor_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | No
     xyz, top, bottom, valid, source, n_views, members, rest, stats = kernels.floor_split(
         segs.box, segs.valid, segs.observed, segs.camera, to_plane, fo, _NO_D2 if D2 is None else D2,
         float(params.cluster_2d), segs.track2d // len(rig.K) if oracle else kernels.NO_GROUP, rig,
-        _space(scene.performance_space), _tracking_space(scene), float(params.max_speed), _rules(params.cluster_plane))
+        _space(scene.performance_space), _tracking_space(scene), float(params.max_speed), _rules(params.cluster_plane),
+        bool(at_mean))
     taken, n_outliers, n_ghost = stats.tolist()
     counts["segments_to_floor"] += taken
     if n_outliers:  # Eq. 4, as for every 3D tracklet
@@ -188,7 +190,7 @@ def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig:
     suite, -0.005 MOTA). ``owner`` may also be the tracker's ``(prev_2d, prev_owner)``: the 2D
     tracks of the previous window's tracklets and their 3D tracks (:class:`~.linking.WindowLinker`).
     ``outliers``: (tracking space (6,), max_speed): Eq. 4 by place first
-    (:func:`.reconstruct.outliers_by_place`, counted in ``tracklets_outliers``; the tracker's
+    (:func:`.reconstruct.outliers_at_mean`, counted in ``tracklets_outliers``; the tracker's
     order), in the same call. Returns the clusters kept
     and the ghosts' segments (indices into ``segs``, for the floor stage only). One kernel call
     (:func:`._kernels.floor.ghost_split`: :func:`._kernels.floor.ghost_test` and the confirmation).
@@ -219,24 +221,6 @@ def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig:
 
 
 _NO_SPACE = np.zeros(6)
-
-
-def solo_inside(pl: WindowTracklets3D, space: np.ndarray, counts: dict) -> WindowTracklets3D:
-    """``cascade+`` (issue 12 item 5, the target's hand-over): a one-view plane tracklet (it may
-    only continue a track) is kept only while its points stay inside the performance space
-    (``space`` (6,)): the apparatus plane holds only there, so a view left alone cannot carry a
-    track -- the target's after a dismount -- onto someone walking away from the apparatus."""
-    solo = (pl.members >= 0).sum(1) == 1
-    if not solo.any():
-        return pl
-    x, y = pl.xyz[..., 0], pl.xyz[..., 1]
-    with np.errstate(invalid="ignore"):
-        out = pl.valid & ~((x >= space[0]) & (x <= space[3]) & (y >= space[1]) & (y <= space[4]))
-    drop = solo & out.any(1)
-    if drop.any():
-        counts["plane_single_view_outside"] += int(drop.sum())
-        pl = pl.subset(~drop)
-    return pl
 
 
 def continuation_only(n: int, tri: WindowTracklets3D | None, floor: WindowTracklets3D | None,

@@ -21,8 +21,8 @@ paper's behaviour.
 window's linked tracklets and the 2D tracks they were made of, the live tracks' last frames,
 the lost tracks (may still be re-linked) and the ended ones (for the target stage, Eq. 13).
 Beyond the paper, a cascade here too: candidates of several views link first; one-view plane
-tracklets only to what is left, and only to continue a track (never to start one). ``cascade+``
-(issue 12): a duplicate track born beside an older one hands the older id on when linking
+tracklets only to what is left, and only to continue a track (never to start one). ``keep_older``
+(beyond the paper): a duplicate track born beside an older one hands the older id on when linking
 continued the duplicate instead (:meth:`WindowLinker._keep_older`).
 """
 
@@ -151,7 +151,7 @@ def merge_overlaps(
     over the known ones). The merged source is the best of the parts (triangulation <
     plane < interpolated), ``n_views`` the largest. Returns rows sorted by (frame, track_id).
 
-    ``best_only`` (``cascade+``, beyond the paper: issue 12): where one window's estimate is an
+    ``best_only`` (the recipe's ``best_estimates``, beyond the paper): where one window's estimate is an
     over-determined triangulation (three or more views) it is the estimate; the rest are
     averaged as in Eq. 12. When one window triangulated three views of a person and the next
     had only an opposite pair on the plane or two views (a view's segment lost to a wrong
@@ -186,7 +186,7 @@ class WindowLinker:
     long a lost track may be re-linked (0: the paper); max_speed: metres per frame, clips a lost
     track's velocity; counts: counter dict the links are counted in (``links``, ``relinks``,
     ``plane_single_view``, ``plane_single_view_unlinked``: the one-view tracklets, of the plane
-    and, in ``cascade+``, of the floor, that continued a track or were dropped).
+    and, with the floor hypothesis, of the floor, that continued a track or were dropped).
 
     Use: ``linked = linker.step(tracklets, track2d, solo)`` once per window, in order.
     State: the previous window's tracklets (M, W), and one entry per live, lost or ended track
@@ -194,12 +194,13 @@ class WindowLinker:
     """
 
     def __init__(self, window_step: int, link_3d: float, relink_frames: int, max_speed: float, counts: dict,
-                 by_2d: bool = False):
+                 floor_by_2d: bool = False, keep_older: bool = False):
         self.window_step, self.link_3d = int(window_step), float(link_3d)
-        # cascade+: a floor tracklet whose views' 2D tracks all belonged to one track of the
-        # previous window continues it whatever its 3D distance (the hypothesis changed -- plane
-        # to floor after a landing -- not the person)
-        self.by_2d = by_2d
+        # a floor tracklet whose views' 2D tracks all belonged to one track of the previous window
+        # continues it whatever its 3D distance (the hypothesis changed -- plane to floor after a
+        # landing -- not the person)
+        self.floor_by_2d = floor_by_2d
+        self.keep_older = keep_older  # a young duplicate's continuation takes the older track's id
         self.prev_owner = np.zeros(0, np.int64)  # the track of each of prev_2d
         self.relink_frames, self.max_speed = int(relink_frames), max_speed
         self.counts = counts
@@ -213,7 +214,7 @@ class WindowLinker:
         self.prev_2d = np.zeros(0, np.int64)
         self.prev_seen = np.zeros(0, np.int64)  # 2D tracks of the previous window's segments
         self._prev_first_new = 0  # the first track id the previous window started (younger ids: born there)
-        # cascade+: :func:`tracklet_ends` of ``prev``'s rows when the motion link computed them
+        # :func:`tracklet_ends` of ``prev``'s rows when the motion link computed them
         # (the tracker hands them over after each step; None: computed here)
         self.prev_ends: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
@@ -243,13 +244,13 @@ class WindowLinker:
 
         cur: (M, W) the window's tracklets (``members`` index ``track2d``); track2d: (K,) the 2D
         track ids of the window's segments; solo: (M,) bool, one-view plane tracklets (they may
-        only continue a track); floor: (M,) bool, floor tracklets (``by_2d``). Returns the
+        only continue a track); floor: (M,) bool, floor tracklets (``floor_by_2d``). Returns the
         linked tracklets, ``track_id`` set (new ids for the unlinked), unlinked one-view
         tracklets removed.
         """
         self._track2d, self._floor = track2d, floor
         ids = self._link(cur, solo)
-        if self.by_2d and self.prev is not None and len(self.prev) and self.prev.start == cur.start - self.window_step:
+        if self.keep_older and self.prev is not None and len(self.prev) and self.prev.start == cur.start - self.window_step:
             self._keep_older(ids)
         first_new = self.next_track_id
         new = ids < 0
@@ -264,8 +265,8 @@ class WindowLinker:
         cur = cur.with_track_id(ids)
         has = cur.members >= 0
         self.prev_2d = track2d[cur.members[has]]
-        if self.by_2d:
-            self.prev_owner = np.repeat(cur.track_id, has.sum(1))  # (row-major, as prev_2d; cheaper than broadcast_to)
+        # (row-major, as prev_2d; cheaper than broadcast_to; the ghost test's confirmation reads it too)
+        self.prev_owner = np.repeat(cur.track_id, has.sum(1))
         self.prev_seen = track2d
         self._prev_first_new = first_new
         self._end_tracks(cur)
@@ -279,14 +280,14 @@ class WindowLinker:
         ids = np.full(len(cur), -1, np.int64)
         prev = self.prev
         chained = prev is not None and len(prev) > 0 and prev.start == start - self.window_step
-        if self.by_2d and chained and self._floor is not None and self._floor.any() and len(self.prev_2d):
+        if self.floor_by_2d and chained and self._floor is not None and self._floor.any() and len(self.prev_2d):
             self._link_by_2d(cur, ids)
         # a cascade here too: candidates of several views link first, one-view ones only to what is left
         for k, group in enumerate((~solo, solo) if solo.any() else (None,)):
             cols = np.flatnonzero(ids < 0) if group is None else np.flatnonzero(group & (ids < 0))
             # the first pass may link any previous tracklet, the second only those still free
-            # (by_2d: only once a link by 2D tracks took one)
-            free = (np.flatnonzero(~member(prev.track_id, ids)) if k or (self.by_2d and (ids >= 0).any())
+            # (floor_by_2d: only once a link by 2D tracks took one)
+            free = (np.flatnonzero(~member(prev.track_id, ids)) if k or (self.floor_by_2d and (ids >= 0).any())
                     else np.arange(len(prev))) if chained else []
             if len(cols) and len(free):
                 r, c = link(link_distances(prev.xyz[free], prev.valid[free], cur.xyz[cols], cur.valid[cols],
@@ -299,7 +300,7 @@ class WindowLinker:
         return ids
 
     def _keep_older(self, ids: np.ndarray) -> None:
-        """``cascade+``: a track born in the previous window beside an older track (their tracklets
+        """``keep_older``: a track born in the previous window beside an older track (their tracklets
         there within ``link_3d``, Eq. 10 over the whole window) is a duplicate of it -- Algorithm 1
         split one person's views into two clusters. When linking continued the young duplicate
         and not the older track, the continuation takes the older id (written into ``ids``); the

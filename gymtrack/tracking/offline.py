@@ -17,7 +17,7 @@ from ..detections import Detections
 from ..geometry.camera import Rig
 from ..scene import Scene
 from .plane_fit import resolve_auto_planes
-from ..modes import DEFAULT_MODE
+from ..modes import DEFAULT_MODE, Method
 from .tracker import Tracker
 from .types import TrackerOutput, TrackResult
 
@@ -26,12 +26,14 @@ def track_detections(
     rig: Rig,
     scene: Scene,
     detections: Detections,
-    mode: str = DEFAULT_MODE,
+    mode: Method | str = DEFAULT_MODE,
     association: str = "iou",
     progress: Callable[[int, int], None] | None = None,
 ) -> TrackResult:
     """Run the streaming :class:`Tracker` over all frames of ``detections`` (offline use): one
     :meth:`Tracker.update` per frame with boxes, so input is checked as in streaming use.
+
+    mode: a recipe (:class:`gymtrack.modes.Method`) or the name of one (:data:`gymtrack.modes.RECIPES`).
 
     progress: optional ``progress(frames_done, frames_total)`` callback (frames with boxes), called
     every ~100 frames.
@@ -53,12 +55,12 @@ def track_detections(
             progress(total, total)
     outs.append(tracker.finish())
     out = TrackerOutput.concat(outs, rig.names)
-    return TrackResult(out.tracks, out.boxes, out.target, out.target_boxes, rig.names, mode, tracker.summary())
+    return TrackResult(out.tracks, out.boxes, out.target, out.target_boxes, rig.names, tracker.mode, tracker.summary())
 
 
 def track_routine(
     routine,
-    mode: str = DEFAULT_MODE,
+    mode: Method | str = DEFAULT_MODE,
     association: str = "iou",
     progress: Callable[[int, int], None] | None = None,
 ) -> TrackResult:

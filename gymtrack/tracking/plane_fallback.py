@@ -20,8 +20,8 @@ Shared frames are frames where both segments were observed (as for Eq. 2, see
 :mod:`.clustering`); the fused tracklet covers every frame where a member is valid.
 
 The tracker runs this stage through :func:`plane_split`: the same stage with its tracker-side
-steps (Eq. 2's separations, the one-view continuation, Eq. 4; ``cascade+``, beyond the paper,
-issue 12: Eq. 4 by place and the one-view tracklets' performance-space test) in the same
+steps (Eq. 2's separations, the one-view continuation, Eq. 4; beyond the paper, as the recipe
+says: Eq. 4's space test on the mean and the one-view tracklets' performance-space test) in the same
 compiled call.
 
 Speed: a window hands this stage a few segments, where numpy's per-call overhead dominated,
@@ -104,22 +104,22 @@ def _rules(threshold: float) -> PlaneRules:  # (one per threshold: built once, n
 def plane_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | None, rig: RigArrays,
                 planes: PlaneArrays, params, oracle: bool, prev_2d: np.ndarray, prev_seen: np.ndarray,
                 tracking_space: np.ndarray, performance_space: np.ndarray | None, counts: dict,
-                by_place: bool = True) -> WindowTracklets3D | None:
+                at_mean: bool = True) -> WindowTracklets3D | None:
     """The tracker's plane stage for the segments ``to_plane`` (indices into ``segs``), one
     kernel call (:func:`._kernels.plane.plane_split`) doing what the tracker did around
     :func:`plane_stage`: segments Eq. 2 separates (``D2 >= cluster_2d``) or an oracle's ids
     (``oracle``: ``track2d // C``) tell apart are not fused; a view left alone may continue its 2D
     track's 3D track when that 2D track was a member of the previous window's tracklets
     (``prev_2d``) or is new (not among ``prev_seen``); Eq. 4 in ``tracking_space``
-    (:func:`.reconstruct.outliers`; ``by_place``, ``cascade+``: :func:`.reconstruct.outliers_by_place`);
-    ``cascade+`` (``performance_space`` given): a one-view tracklet is kept only while its points
-    stay inside it (:func:`.floor.solo_inside`). Returns the plane tracklets (``members`` index
+    (:func:`.reconstruct.outliers`; ``at_mean``: the space test on the mean, :func:`.reconstruct.outliers_at_mean`);
+    ``performance_space`` given (the recipe's ``solo_inside``): a one-view tracklet is kept only while its points
+    stay inside it. Returns the plane tracklets (``members`` index
     ``segs``), None when the stage fused nothing; counts as the numpy path counts them."""
     C = len(rig.K)
     xyz, top, bottom, valid, source, n_views, members, stats = plane_split_kernel(
         segs.box, segs.observed, segs.camera, segs.track2d, to_plane, _NO_D2 if D2 is None else D2,
         float(params.cluster_2d), segs.track2d // C if oracle else NO_GROUP, prev_2d, prev_seen, rig, planes,
-        _rules(float(params.cluster_plane)), tracking_space, float(params.max_speed), bool(by_place),
+        _rules(float(params.cluster_plane)), tracking_space, float(params.max_speed), bool(at_mean),
         _NO_SPACE if performance_space is None else performance_space)
     fused, n_outliers, n_outside = stats.tolist()
     counts["segments_to_plane"] += len(to_plane)

@@ -107,7 +107,7 @@ def outliers(xyz: np.ndarray, valid: np.ndarray, space: np.ndarray, max_speed: f
     return kernels.outliers(_contiguous(xyz), np.ascontiguousarray(valid), _contiguous(space), float(max_speed))
 
 
-def outliers_by_place(xyz: np.ndarray, valid: np.ndarray, space: np.ndarray, max_speed: float) -> np.ndarray:
+def outliers_at_mean(xyz: np.ndarray, valid: np.ndarray, space: np.ndarray, max_speed: float) -> np.ndarray:
     """``cascade+`` (beyond the paper, issue 12): Eq. 4 with the tracking-space test on the
     tracklet's mean position over its valid frames instead of on every point.
 
@@ -121,7 +121,7 @@ def outliers_by_place(xyz: np.ndarray, valid: np.ndarray, space: np.ndarray, max
     M, W = valid.shape
     if M == 0:
         return np.zeros(0, bool)
-    return kernels.outliers_by_place(_contiguous(xyz), np.ascontiguousarray(valid), _contiguous(space),
+    return kernels.outliers_at_mean(_contiguous(xyz), np.ascontiguousarray(valid), _contiguous(space),
                                      float(max_speed))  # one compiled loop (numpy: tests/reference)
 
 
@@ -137,5 +137,5 @@ def source_for(n_views: np.ndarray, code: int) -> np.ndarray:
 
 __all__ = [
     "cluster_members", "observed_views", "triangulate_clusters", "opposite_clusters", "fallback_segments", "outliers",
-    "outliers_by_place", "source_for", "PLANE", "TRIANGULATION",
+    "outliers_at_mean", "source_for", "PLANE", "TRIANGULATION",
 ]

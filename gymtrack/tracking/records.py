@@ -6,7 +6,7 @@
 * :class:`WindowRecords` -- every window's linked 3D points and the detections of their member
   segments. When frames become final, Eq. 12 averages the estimates of the windows covering a
   frame (:func:`~.linking.merge_overlaps`) and every detection goes to the track of the latest
-  window that used it. Beyond the paper (``cascade+``, issue 12, ``superseded=True``): a
+  window that used it. Beyond the paper (the recipe's ``exclusion``, ``superseded=True``): a
   window's estimate of a frame whose detections there all went to *other* tracks of later
   windows is *superseded* (:func:`superseded`): the later window re-assigned that person's
   boxes, so a point with nothing but such estimates duplicates another track's
@@ -162,9 +162,9 @@ class WindowRecords:
     """
 
     def __init__(self, superseded: bool = False, best_only: bool = False):
-        self.superseded = bool(superseded)  # cascade+: drop the estimates whose boxes later windows took
+        self.superseded = bool(superseded)  # exclusion: drop the estimates whose boxes later windows took
         self.dropped = 0  # points flagged that way
-        self.best_only = best_only  # cascade+: Eq. 12 over the best-observed estimates only (merge_overlaps)
+        self.best_only = best_only  # best_estimates: Eq. 12 over the best-observed estimates only (merge_overlaps)
         self._estimates: list[Tracks3D] = []
         self._windows: list[np.ndarray] = []  # the window index of every estimate (parallel to _estimates)
         self._members: list[MemberRows] = []

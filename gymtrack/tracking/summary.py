@@ -1,17 +1,22 @@
 """The streaming tracker's summary: what each stage used, made and dropped, and its timings.
 
 Paper: Section III (Fig. 2), the counts of every stage of :class:`~.tracker.Tracker`; nothing the
-user gave is dropped without being counted here. Beyond the paper (issue 12): ``cascade+``'s own
-counters, reported in its summary only, so the other modes' outputs stay as they were.
+user gave is dropped without being counted here. The counters of an ingredient beyond the paper
+(:class:`gymtrack.modes.Method`) are reported only when the recipe has it, so the paper's modes'
+summaries hold only the paper's counters. A recipe other than the named one of its name adds its
+ingredients (``recipe``).
 """
 
 from __future__ import annotations
 
+from dataclasses import asdict
+
+from ..modes import RECIPES
 from .fusion import COUNTS as FUSION_COUNTS
 from .motion_link import COUNTS as MOTION_COUNTS
 from .single_view_motion import COUNTS as VIEW_COUNTS
 
-__all__ = ["COUNTS", "PLUS_COUNTS", "STAGES", "tracker_summary"]
+__all__ = ["COUNTS", "INGREDIENT_COUNTS", "STAGES", "tracker_summary"]
 
 #: the per-window counters of :meth:`Tracker.summary` (what was used, made, dropped)
 COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulated", "segments_to_plane",
@@ -19,9 +24,11 @@ COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulate
           "plane_single_view_unlinked", "floor_tracklets", "segments_to_floor", "floor_ghosts",
           "segments_dropped_ghost", "plane_single_view_outside", "links_2d", "fused_plane", "fused_triangulated",
           "fused_to_plane_stage")
-#: cascade+'s own counters, in its summary only (so the other modes' outputs stay as they were)
-PLUS_COUNTS = MOTION_COUNTS + VIEW_COUNTS + ("points_suppressed", "floor_single_view", "floor_ghosts_confirmed",
-                                            "links_older")
+#: the counters of the ingredients beyond the paper, in the summary of a recipe that has them
+INGREDIENT_COUNTS: dict[str, tuple[str, ...]] = {
+    "motion_link": MOTION_COUNTS, "image_motion": VIEW_COUNTS, "exclusion": ("points_suppressed",),
+    "floor": ("floor_single_view",), "ghost_test": ("floor_ghosts_confirmed",), "keep_older": ("links_older",),
+}
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
 
 
@@ -43,17 +50,24 @@ def tracker_summary(t) -> dict:
         "target_frames": int(t.target.frames),
         "target_switches": int(t.target.switches),
         "target_identifications": int(t.target.identifications),
-        **{k: int(t.counts[k]) for k in COUNTS + (PLUS_COUNTS if t.plus else ())
+        **{k: int(t.counts[k]) for k in COUNTS + _ingredient_counts(t.method)
            + (FUSION_COUNTS if t.fusion is not None else ())},
         "seconds": {k: round(v, 6) for k, v in t.timings.items()},
         "seconds_total": round(total, 6),
         "fps": round(frames / total, 1) if total > 0 else None,
     }
-    if t.plus:
+    if t.method.exclusion:
         s["points_superseded"] = int(t.records.dropped)
+    if t.method != RECIPES.get(t.method.name):  # a recipe of its own: what it is
+        s["recipe"] = asdict(t.method)
     if t.refiner is not None:
         s["plane_refinement"] = t.refiner.summary()
     if t.association == "oracle":
         s["detections_dropped_false_positive"] = {n: int(v) for n, v in zip(names, t.false_positives)}
         s["detections_dropped_duplicate"] = int(t.counts["duplicates"])
     return s
+
+
+def _ingredient_counts(method) -> tuple[str, ...]:
+    """The counter names of the recipe's ingredients beyond the paper, in a fixed order."""
+    return sum((INGREDIENT_COUNTS[k] for k in INGREDIENT_COUNTS if getattr(method, k)), ())

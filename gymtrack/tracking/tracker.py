@@ -29,12 +29,15 @@ Beyond the paper (README, "Beyond the paper"): lost tracks re-link across ``reli
 segments Eq. 2 separates are never fused on the plane; a view left alone may continue its 2D
 track's 3D track on the plane; the target back-fill.
 
-Modes (the paper's ablation, Table 4): ``cascade`` (the method), ``triangulation`` (no plane
+What the tracker does is a recipe, :class:`gymtrack.modes.Method`: one field per choice, read
+here once and handed to the stages as plain arguments (no stage tests a mode's name). The named
+recipes (:data:`gymtrack.modes.RECIPES`): ``cascade`` (the method), ``triangulation`` (no plane
 fallback; single-tracklet clusters dropped, opposite pairs triangulated -- close to UniMMT),
-``plane`` (every segment to the plane stage); beyond the paper (issue 12), ``cascade+``: the
-floor hypothesis (:mod:`.floor`), 2D tracks joined by 3D motion (:mod:`.motion_link`) and, at low
-frame rates, by image motion (:mod:`.single_view_motion`), duplicates left out (:mod:`.exclusion`),
-opt-in ray/plane fusion (:mod:`.fusion`) and online plane refinement (:mod:`.plane_refine`).
+``plane`` (every segment to the plane stage), the paper's ablation (Table 4); beyond the paper,
+``cascade+``: the floor hypothesis and its ghost test (:mod:`.floor`), 2D tracks joined by 3D
+motion (:mod:`.motion_link`) and, at low frame rates, by image motion (:mod:`.single_view_motion`),
+duplicates left out (:mod:`.exclusion`), ray/plane fusion (:mod:`.fusion`) and online plane
+refinement (:mod:`.plane_refine`) where the scene asks for them.
 ``association="oracle"`` replaces the IoU tracker and Algorithm 1 by ground-truth ids in
 ``Detections.track_id`` (>= 0; -1 = a false positive, dropped and counted): the limit better
 association could reach (the plane stage still applies Eq. 8 within each person).
@@ -54,7 +57,7 @@ import numpy as np
 
 from ..detections import Detections
 from ..errors import InputError
-from ..modes import DEFAULT_MODE, MODES
+from ..modes import DEFAULT_MODE, Method, method_of
 from ..scene import Scene
 from ..geometry.arrays import PlaneArrays
 from ..geometry.camera import Rig
@@ -64,15 +67,15 @@ from ..geometry.views import opposite_pairs
 from ._kernels import warm_up
 from ._kernels.single_view import frame_rows_check
 from .clustering import complete_linkage, tracklet_distances
-from .floor import continuation_only, drop_floor_ghosts, floor_split, solo_inside
+from .floor import continuation_only, drop_floor_ghosts, floor_split
 from .exclusion import suppress_duplicates
 from .fusion import PlaneRayFusion
 from .linking import WindowLinker
 from .motion_link import MotionLinker
-from .plane_fallback import plane_split, plane_stage
+from .plane_fallback import plane_split
 from .plane_fit import REFINE_EVERY
 from .plane_refine import PlaneRefiner
-from .reconstruct import cluster_members, fallback_segments, opposite_clusters, outliers, outliers_by_place, triangulate_clusters
+from .reconstruct import cluster_members, fallback_segments, opposite_clusters, outliers, outliers_at_mean, triangulate_clusters
 from .single_view import IoUTracker
 from .single_view_motion import MotionIoUTracker, needs_motion
 from .target import TargetStage
@@ -80,10 +83,6 @@ from .types import TrackerOutput, Tracks3D, WindowTracklets, WindowTracklets3D
 from .records import BoxTable, WindowRecords
 from .summary import STAGES, tracker_summary
 from .windows import build_window
-
-#: cascade+: seconds a segment's end box is held beyond its last observation (windows); a walker
-#: moves ~0.3 m in that time, so at 2 fps no box is held (held boxes there were 1.4 m stale ghosts)
-HOLD_SECONDS = 0.2
 
 ASSOCIATIONS = ("iou", "oracle")
 
@@ -95,7 +94,9 @@ class Tracker:
     ----------
     rig: the cameras; ``Detections.camera`` indexes it.
     scene: performance space, buffer, planes, target heights and every parameter (``scene.params``).
-    mode: ``cascade`` | ``triangulation`` | ``plane`` | ``cascade+`` (see the module docstring).
+    method: a :class:`~gymtrack.modes.Method` recipe or the name of one in
+        :data:`~gymtrack.modes.RECIPES` (``cascade`` | ``triangulation`` | ``plane`` | ``cascade+``);
+        ``mode=`` is the same argument under its older name.
     association: ``iou`` (the method) | ``oracle`` (ground-truth ids in ``track_id``).
 
     Use: ``out = tracker.update(frame, detections_of_that_frame)`` for increasing frame
@@ -103,18 +104,20 @@ class Tracker:
     returns a :class:`TrackerOutput` of what became final.
     """
 
-    def __init__(self, rig: Rig, scene: Scene, mode: str = DEFAULT_MODE, association: str = "iou"):
-        if mode not in MODES:
-            raise InputError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}", field="mode")
+    def __init__(self, rig: Rig, scene: Scene, method: Method | str = DEFAULT_MODE, association: str = "iou",
+                 *, mode: Method | str | None = None):
+        try:
+            m = self.method = method_of(method if mode is None else mode)
+        except ValueError as e:
+            raise InputError(str(e), field="mode") from None
         if association not in ASSOCIATIONS:
             raise InputError(f"unknown association {association!r}; choose one of {', '.join(ASSOCIATIONS)}",
                              field="association")
-        if mode != "triangulation" and not scene.planes:
-            raise InputError(f"mode {mode!r} needs at least one plane in scene.yaml (planes:)", field="planes")
-        self.rig, self.scene, self.mode, self.association = rig, scene, mode, association
-        self.plus = mode == "cascade+"  # the beyond-the-paper additions (floor, ...) are gated on this
-        self._floor_only = np.zeros(0, np.int64)  # cascade+: this window's segments of ghost clusters
-        self._outliers = outliers_by_place if self.plus else outliers  # Eq. 4 (cascade+: S_track by the mean)
+        if m.plane != "none" and not scene.planes:
+            raise InputError(f"mode {m.name!r} needs at least one plane in scene.yaml (planes:)", field="planes")
+        self.rig, self.scene, self.mode, self.association = rig, scene, m.name, association
+        self._floor_only = np.zeros(0, np.int64)  # the ghost test's segments this window (floor only)
+        self._outliers = outliers_at_mean if m.outliers_at_mean else outliers  # Eq. 4
         p = self.params = scene.params
         self.width, self.step = p.window, p.step
         self.n_cameras = len(rig)
@@ -130,22 +133,25 @@ class Tracker:
         self.opposite = opposite_pairs(rig, scene.focus_point, p.opposite_angle_deg)
         warm_up()  # numba's compile / cache load of every kernel: once per process, never tracking time
         self.counts: dict = defaultdict(int)
-        # cascade+: the per-view tracker also links by predicted image motion (.single_view_motion)
+        # the per-view tracker, linking by IoU or also by predicted image motion (.single_view_motion)
         self.iou = (MotionIoUTracker(scene.fps, p.iou_threshold, p.max_age, counts=self.counts)
-                    if self.plus and association == "iou" and needs_motion(scene.fps)
+                    if m.image_motion and association == "iou" and needs_motion(scene.fps)
                     else IoUTracker(p.iou_threshold, p.max_age))
-        self.linker = WindowLinker(p.step, p.link_3d, p.relink_frames, p.max_speed, self.counts, by_2d=self.plus)
+        self.linker = WindowLinker(p.step, p.link_3d, p.relink_frames, p.max_speed, self.counts,
+                                   floor_by_2d=m.floor, keep_older=m.keep_older)
         self.fusion = (PlaneRayFusion(rig, scene, self.plane_arrays, self.opposite, self.counts)
-                       if self.plus and p.fuse_plane else None)
-        # cascade+: 2D tracks the IoU tracker broke, joined by 3D motion (.motion_link)
+                       if m.fusion and p.fuse_plane else None)
+        # 2D tracks the IoU tracker broke, joined by 3D motion (.motion_link)
         self.motion = (MotionLinker(self.P, p.step, p.window, p.max_age, p.max_speed, self.counts)
-                       if self.plus and association == "iou" else None)
-        # frames a segment's end box is held (windows): max_age; cascade+: HOLD_SECONDS (30 fps: max_age)
-        self.hold = min(p.max_age, int(HOLD_SECONDS * scene.fps)) if self.plus else p.max_age
+                       if m.motion_link and association == "iou" else None)
+        # frames a segment's end box is held (windows): max_age, or hold_seconds (capped at max_age)
+        self.hold = p.max_age if m.hold_seconds is None else min(p.max_age, int(m.hold_seconds * scene.fps))
         self.target = TargetStage(rig, scene)
-        # cascade+: the apparatus plane refined online (.plane_refine); planes: auto turns it on
+        # the apparatus plane refined online (.plane_refine); planes: auto turns it on
         every = p.refine_plane or (REFINE_EVERY if scene.auto_planes else 0)
-        self.refiner = PlaneRefiner(self.P, scene, self.planes[0], every) if self.plus and every else None
+        self.refiner = PlaneRefiner(self.P, scene, self.planes[0], every) if m.refine_plane and every else None
+        self._space_mean = self.space if m.outliers_at_mean else None  # Eq. 4 by the mean with the ghost test
+        self._solo_space = self.perf_space if m.solo_inside else None  # one view alone only inside S_perf
         # stream position
         self.first_frame: int | None = None
         self.last_frame: int | None = None
@@ -155,7 +161,8 @@ class Tracker:
         self._window_index = 0
         self._finished = False
         self.table = BoxTable(rig)  # the boxes of frames not yet final
-        self.records = WindowRecords(superseded=self.plus, best_only=self.plus)  # the windows' 3D points, member boxes
+        # the windows' 3D points and member boxes
+        self.records = WindowRecords(superseded=m.exclusion, best_only=m.best_estimates)
         self._out: list[TrackerOutput] = []
         self._nothing = TrackerOutput.empty(self.names)  # what most calls return
         # counters
@@ -263,7 +270,7 @@ class Tracker:
         self._finalise(start + self.step - 1)
 
     def _refine_plane(self, start: int) -> None:
-        """cascade+: the plane refitted from the tracker's own points (:mod:`.plane_refine`)."""
+        """The plane refitted from the tracker's own points (:mod:`.plane_refine`)."""
         moved = self.refiner.refit(start + self.width - 1)
         if moved is not None:
             self.planes = [moved] + self.planes[1:]
@@ -297,7 +304,7 @@ class Tracker:
     def _cluster(self, segs: WindowTracklets) -> tuple[np.ndarray | None, np.ndarray | None]:
         """Stage 3: (K,) cluster labels of the segments (None: every segment goes to the plane)
         and the Eq. 2 distances (K, K) (the method's own association only, else None)."""
-        if self.mode == "plane":
+        if self.method.plane == "all":
             return None, None
         if self.association == "oracle":
             return np.unique(segs.track2d // self.n_cameras, return_inverse=True)[1], None
@@ -317,9 +324,9 @@ class Tracker:
             return None, to_plane
         members = cluster_members(labels, segs.camera, C)
         multi = (members >= 0).sum(axis=1) >= 2
-        if self.mode != "triangulation":  # cascade(+): single tracklets and opposite pairs go to the plane
+        if self.method.plane == "rest":  # the cascade: single tracklets and opposite pairs go to the plane
             fallback = ~multi | opposite_clusters(members, self.opposite)
-            if self.fusion is not None:  # cascade+: two-view clusters fused with the plane (.fusion)
+            if self.fusion is not None:  # two-view clusters fused with the plane (.fusion)
                 fused, fallback, multi = self.fusion.step(segs, members, fallback, multi)
             to_plane = fallback_segments(members, fallback)  # (sorted)
             multi &= ~fallback
@@ -327,57 +334,47 @@ class Tracker:
             self.counts["segments_dropped_single"] += int(np.count_nonzero(~multi))
         tri = triangulate_clusters(segs, members[multi], self.P)
         tri = tri if fused is None else WindowTracklets3D.concat([tri, fused])
-        if self.plus:  # Eq. 4 by place, then the floor's ghost test; a ghost's segments may go to the floor only
+        if self.method.ghost_test:  # Eq. 4, then the floor's ghost test; a ghost's segments may go to the floor only
+            if self._space_mean is None:  # (the paper's Eq. 4 first; by the mean it runs inside the ghost test's call)
+                tri = self._drop_outliers(tri)
             tri, self._floor_only = drop_floor_ghosts(tri, segs, self.rig.arrays, self.plane_arrays, p, self.scene, self.counts,
-                                                      (self.linker.prev_2d, self.linker.prev_owner), (self.space, p.max_speed))
+                                                      (self.linker.prev_2d, self.linker.prev_owner),
+                                                      None if self._space_mean is None else (self.space, p.max_speed))
         else:
-            bad = self._outliers(tri.xyz, tri.valid, self.space, p.max_speed)
-            if bad.any():
-                self.counts["tracklets_outliers"] += int(bad.sum())
-                tri = tri.subset(~bad)
+            tri = self._drop_outliers(tri)
         if self.refiner is not None:  # the plane's points: what passed the tests, and the opposite pairs
             self.refiner.observe(segs, tri, members[fallback & ((members >= 0).sum(axis=1) >= 2)])
         self.counts["clusters_triangulated"] += len(tri)
         return tri, to_plane
 
+    def _drop_outliers(self, tr: WindowTracklets3D) -> WindowTracklets3D:
+        """Eq. 4 (the recipe's space test) in ``S_track``; the outliers counted and left out."""
+        bad = self._outliers(tr.xyz, tr.valid, self.space, self.params.max_speed)
+        if bad.any():
+            self.counts["tracklets_outliers"] += int(bad.sum())
+            tr = tr.subset(~bad)
+        return tr
+
     def _plane_fallback(self, segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | None
                         ) -> tuple[WindowTracklets3D | None, WindowTracklets3D | None]:
         """Stage 5: the segments ``to_plane`` on the vertical plane (Eq. 5-9), outliers dropped;
-        ``members`` index ``segs``. None when nothing is left. ``cascade+``: people on the floor
-        first (:func:`.floor.floor_split`), returned second."""
-        p, C = self.params, self.n_cameras
+        ``members`` index ``segs``. None when nothing is left. With the floor hypothesis: people on
+        the floor first (:func:`.floor.floor_split`), returned second."""
+        p = self.params
         floor = None
-        if self.plus and len(to_plane) + len(self._floor_only):
+        if self.method.floor and len(to_plane) + len(self._floor_only):
             floor, to_plane = floor_split(segs, to_plane, D2, self.rig.arrays, p, self.scene, self.association == "oracle",
-                                          self.counts, self._floor_only)
+                                          self.counts, self._floor_only, self.method.outliers_at_mean)
+        elif len(self._floor_only):  # the ghosts' segments, without a floor to take them
+            self.counts["segments_dropped_ghost"] += len(self._floor_only)
         if not len(to_plane):
             return None, floor
-        if self.fusion is None:  # the same steps as below in one compiled call
-            return plane_split(segs, to_plane, D2, self.rig.arrays, self.plane_arrays, p, self.association == "oracle",
-                               self.linker.prev_2d, self.linker.prev_seen, self.space,
-                               self.perf_space if self.plus else None, self.counts, by_place=self.plus), floor
-        sub = segs.subset(to_plane)
-        plane_labels = None
-        if self.association == "oracle":
-            plane_labels = np.unique(sub.track2d // C, return_inverse=True)[1]
-        # beyond the paper: segments Eq. 2 says are different people are not fused on the plane
-        apart = None if D2 is None else D2[to_plane][:, to_plane] >= p.cluster_2d  # (two takes: cheaper than np.ix_)
-        # beyond the paper: a view left alone may continue, on the plane, its 2D track's 3D track
-        single = self.linker.may_continue_alone(sub.track2d)
-        pl = plane_stage(sub, self.rig, self.plane_arrays, p.cluster_plane, plane_labels, apart, single)
-        self.counts["segments_to_plane"] += len(to_plane)
-        if not len(pl):
-            return None, floor
-        if self.fusion is not None:  # cascade+: two-view plane tracklets fused with the plane (.fusion)
-            pl = self.fusion.refine(sub, pl)
-        bad = self._outliers(pl.xyz, pl.valid, self.space, p.max_speed)
-        if bad.any():
-            self.counts["tracklets_outliers"] += int(bad.sum())
-            pl = pl.subset(~bad)
-        pl = pl.with_members(np.where(pl.members >= 0, to_plane[np.maximum(pl.members, 0)], -1))  # index segs
-        if self.plus:  # the target's hand-over: one view alone only inside S_perf
-            pl = solo_inside(pl, self.scene.performance_space, self.counts)
-        self.counts["plane_tracklets"] += len(pl)
+        # Eq. 2's separations, the one-view continuation, Eq. 5-9, Eq. 4, one view only inside S_perf
+        pl = plane_split(segs, to_plane, D2, self.rig.arrays, self.plane_arrays, p, self.association == "oracle",
+                         self.linker.prev_2d, self.linker.prev_seen, self.space, self._solo_space, self.counts,
+                         self.method.outliers_at_mean)
+        if pl is not None and self.fusion is not None:  # two-view plane tracklets fused with the plane (.fusion)
+            pl = self._drop_outliers(self.fusion.refine(segs, pl))  # (Eq. 4 on the fused points too)
         return pl, floor
 
     def _link(self, start: int, segs: WindowTracklets, tri: WindowTracklets3D | None,
@@ -392,7 +389,7 @@ class Tracker:
         cur = self.linker.step(cur, segs.track2d, solo, floor_rows)
         if self.motion is not None:
             self.motion.remember(cur, segs)
-            if self.motion.ends:  # cascade+: the linker's lost tracks take their ends from these (same values)
+            if self.motion.ends:  # the linker's lost tracks take their ends from these (same values)
                 self.linker.prev_ends = self.motion.ends[4:]
         self.records.add(cur, segs, self._window_index)
         self._window_index += 1
@@ -408,7 +405,7 @@ class Tracker:
         tracks, gone = self.records.tracks_superseded(upto)
         boxes = all_boxes = self._final_boxes(upto)
         all_tracks = tracks  # the target stage (Eq. 13-14) keeps every point: see .exclusion
-        if self.plus:  # beyond the paper: the reported tracks without duplicates (.exclusion)
+        if self.method.exclusion:  # beyond the paper: the reported tracks without duplicates (.exclusion)
             tracks, boxes = suppress_duplicates(tracks, boxes, self.counts, gone)
         self.used += np.bincount(boxes.camera, minlength=self.n_cameras)
         t1 = time.perf_counter()

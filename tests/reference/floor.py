@@ -207,7 +207,7 @@ def floor_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | No
     ``floor_only``, Eq. 2's separations (``D2 >= cluster_2d``) and oracle ids as constraints,
     Eq. 4 by place (S_track) on the result; members index ``segs``. Returns the floor tracklets
     (None when none) and the ``to_plane`` segments left for the plane."""
-    from reference.reconstruct import outliers_by_place_numpy
+    from reference.reconstruct import outliers_at_mean_numpy
 
     C = len(rig.K)
     n_plane = len(to_plane)
@@ -222,7 +222,7 @@ def floor_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | No
     counts["segments_to_floor"] += int(used.sum())
     out = None
     if len(fl):
-        bad = outliers_by_place_numpy(fl.xyz, fl.valid, np.asarray(scene.tracking_space, float), params.max_speed)
+        bad = outliers_at_mean_numpy(fl.xyz, fl.valid, np.asarray(scene.tracking_space, float), params.max_speed)
         if bad.any():
             counts["tracklets_outliers"] += int(bad.sum())
             fl = fl.subset(~bad)

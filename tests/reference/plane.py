@@ -210,12 +210,12 @@ def plane_stage_numpy(segs, rig, planes, threshold, labels=None, apart=None, sin
 
 
 def plane_split_numpy(segs, to_plane, D2, rig, planes, params, oracle, prev_2d, prev_seen, tracking_space,
-                      performance_space, counts, by_place=True):
+                      performance_space, counts, at_mean=True):
     """The plane stage as the tracker ran it around the stage: segments taken out, Eq. 2's
     separations, oracle ids, the one-view continuation, the stage, Eq. 4 (cascade+: by place),
     members to the window's segments, one-view tracklets only inside S_perf (cascade+: when
     ``performance_space`` is given)."""
-    from reference.reconstruct import outliers_by_place_numpy, outliers_numpy
+    from reference.reconstruct import outliers_at_mean_numpy, outliers_numpy
 
     sub = segs.subset(to_plane)
     labels = np.unique(sub.track2d // len(rig), return_inverse=True)[1] if oracle else None
@@ -225,7 +225,7 @@ def plane_split_numpy(segs, to_plane, D2, rig, planes, params, oracle, prev_2d, 
     counts["segments_to_plane"] += len(to_plane)
     if not len(pl):
         return None
-    bad = (outliers_by_place_numpy if by_place else outliers_numpy)(pl.xyz, pl.valid, tracking_space, params.max_speed)
+    bad = (outliers_at_mean_numpy if at_mean else outliers_numpy)(pl.xyz, pl.valid, tracking_space, params.max_speed)
     if bad.any():
         counts["tracklets_outliers"] += int(bad.sum())
         pl = pl.subset(~bad)

@@ -31,7 +31,7 @@ def outliers_numpy(xyz, valid, space, max_speed):
     return bad
 
 
-def outliers_by_place_numpy(xyz, valid, space, max_speed):
+def outliers_at_mean_numpy(xyz, valid, space, max_speed):
     """cascade+'s Eq. 4 before compilation: Eq. 4's speed test, the space test on the mean."""
     M, W = valid.shape
     if M == 0:

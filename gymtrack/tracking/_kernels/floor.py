@@ -24,7 +24,7 @@ from numba import njit
 from ...geometry.primitives import plane_offset, ray_direction, ray_plane
 from ..types import INTERPOLATED, PLANE
 from .clustering import NO_APART, NO_GROUP, complete_linkage, constraints
-from .reconstruct import outliers_by_place, segments_of
+from .reconstruct import outliers, outliers_at_mean, segments_of
 from .sample import sample
 
 _NAN = np.nan
@@ -215,12 +215,13 @@ def floor_stage(box, valid, observed, camera, rig, space, apart, group, rules):
 
 @njit(cache=True, error_model="numpy")
 def floor_split(box, valid, observed, camera, to_plane, floor_only, D2, cut, person, rig, space, tspace, max_speed,
-                rules):
+                rules, at_mean):
     """The tracker's floor hook (:func:`gymtrack.tracking.floor.floor_split`) in one call: the
     segments ``to_plane`` then ``floor_only`` (int64 indices into the window's box, valid,
     observed (K, W), camera (K,)) taken out, Eq. 2's separations (``D2`` (K, K) >= ``cut``;
     (0, 0): none) and oracle ids (``person`` (K,); (0,): none) as constraints,
-    :func:`floor_stage`, then Eq. 4 by place (:func:`.reconstruct.outliers_by_place`, ``tspace``).
+    :func:`floor_stage`, then Eq. 4 in ``tspace`` (``at_mean``: the space test on the mean,
+    :func:`.reconstruct.outliers_at_mean`; else on every point).
     Returns xyz, top_z, bottom_z, valid, source, n_views of the kept floor tracklets, their
     members (indices of the window's segments), the ``to_plane`` segments left for the plane
     (in order) and (3,) int64 counts: segments taken, outlier tracklets, ``floor_only`` left."""
@@ -249,7 +250,7 @@ def floor_split(box, valid, observed, camera, to_plane, floor_only, D2, cut, per
     M = members.shape[0]
     keep = np.ones(M, np.bool_)
     if M > 0:
-        keep = ~outliers_by_place(xyz, fvalid, tspace, max_speed)
+        keep = ~(outliers_at_mean(xyz, fvalid, tspace, max_speed) if at_mean else outliers(xyz, fvalid, tspace, max_speed))
     n_keep = 0
     for m in range(M):
         n_keep += keep[m]
@@ -347,19 +348,19 @@ def ghost_test(members, valid3, bottom_z, xyz, box, valid, observed, camera, rig
 
 @njit(cache=True, error_model="numpy")
 def ghost_split(members, valid3, bottom_z, xyz, box, valid, observed, camera, track2d, prev_2d, prev_owner, confirm,
-                rig, planes, space, air, min_cos, rules, tspace, max_speed, by_place):
+                rig, planes, space, air, min_cos, rules, tspace, max_speed, eq4):
     """:func:`ghost_test` and what :func:`gymtrack.tracking.floor.drop_floor_ghosts` does with it, in
     one call. track2d (K,): the segments' 2D tracks; ``confirm``: a ghost whose 2D tracks were all
     members of one 3D track of the previous window (``prev_owner`` (n,) of the 2D tracks
-    ``prev_2d`` (n,); -1 / none found: no track) is kept; ``by_place``: first Eq. 4 by place
-    (:func:`.reconstruct.outliers_by_place` in ``tspace``; the outliers are not tested).
+    ``prev_2d`` (n,); -1 / none found: no track) is kept; ``eq4``: first Eq. 4 with the space test on the mean
+    (:func:`.reconstruct.outliers_at_mean` in ``tspace``; the outliers are not tested).
     Returns drop (M,) bool (outliers and ghosts), the ghosts' segments (sorted) and (4,) int64:
     outliers, any ghost before the confirmation (0 / 1), ghosts confirmed, ghosts."""
     M, C = members.shape
     stats = np.zeros(4, np.int64)
     bad = np.zeros(M, np.bool_)
-    if by_place and M > 0:
-        bad = outliers_by_place(xyz, valid3, tspace, max_speed)
+    if eq4 and M > 0:
+        bad = outliers_at_mean(xyz, valid3, tspace, max_speed)
     ghost = ghost_test(members, valid3, bottom_z, xyz, box, valid, observed, camera, rig, planes, space, air, min_cos,
                        rules)  # (row by row: an outlier's answer is not used)
     for m in range(M):
@@ -409,9 +410,9 @@ def warm_up() -> None:
         floor_stage(s.box, valid, s.observed, s.camera, rig, space, apart, group, rules)
     M, W = 1, s.box.shape[1]
     D2 = np.zeros((2, 2))
-    for d2, person in ((np.zeros((0, 0)), NO_GROUP), (D2, np.zeros(2, np.int64))):
+    for d2, person, at_mean in ((np.zeros((0, 0)), NO_GROUP, True), (D2, np.zeros(2, np.int64), False)):
         floor_split(s.box, valid, s.observed, s.camera, np.array([0], np.int64), np.array([1], np.int64), d2, 1.0,
-                    person, rig, space, space, 0.5, rules)
+                    person, rig, space, space, 0.5, rules, at_mean)
     ghost_test(np.array([[0, 1]], np.int64), np.ones((M, W), bool), np.ones((M, W)), np.ones((M, W, 3)), s.box,
                valid, s.observed, s.camera, rig, PlaneArrays.from_planes(s.planes), space, 0.25, 1e-3, rules)
     i2 = np.arange(2, dtype=np.int64)

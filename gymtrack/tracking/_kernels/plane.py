@@ -18,7 +18,7 @@ from numba import njit
 from ...geometry.primitives import RAY_OK, plane_offset, ray_direction, ray_plane
 from ..types import INTERPOLATED, PLANE
 from .clustering import NO_APART, NO_GROUP, complete_linkage, constraints
-from .reconstruct import outliers, outliers_by_place
+from .reconstruct import outliers, outliers_at_mean
 from .sample import sample
 
 _NAN = np.nan
@@ -283,13 +283,13 @@ def plane_stage(box, observed, camera, rig, planes, constraints, rules):
 
 @njit(cache=True, error_model="numpy")
 def plane_split(box, observed, camera, track2d, to_plane, D2, cut, person, prev_2d, prev_seen, rig, planes, rules,
-                tspace, max_speed, by_place, pspace):
-    """``cascade+``'s plane stage for the segments ``to_plane`` (int64 indices into the window's
+                tspace, max_speed, at_mean, pspace):
+    """The tracker's plane stage for the segments ``to_plane`` (int64 indices into the window's
     box (K, W, 4), observed (K, W), camera, track2d (K,)) in one call
     (:func:`gymtrack.tracking.plane_fallback.plane_split`): Eq. 2's separations (``D2`` (K, K)
     >= ``cut``; (0, 0): none) and oracle ids (``person`` (K,); (0,): none) as constraints, the
     one-view continuation (a 2D track among ``prev_2d`` or not among ``prev_seen``),
-    :func:`plane_stage`, Eq. 4 (``tspace``; ``by_place``: on the tracklet's mean position, cascade+),
+    :func:`plane_stage`, Eq. 4 (``tspace``; ``at_mean``: the space test on the tracklet's mean position),
     members to the window's segments, and one-view tracklets only inside ``pspace`` (any valid
     point outside drops them; (0,): no such test, the paper's cascade).
     Returns xyz, top_z, bottom_z, valid, source, n_views, members and (3,) int64 counts:
@@ -316,7 +316,7 @@ def plane_split(box, observed, camera, track2d, to_plane, D2, cut, person, prev_
     stats[0] = M
     keep = np.ones(M, np.bool_)
     if M > 0:
-        keep = ~(outliers_by_place(xyz, valid, tspace, max_speed) if by_place else outliers(xyz, valid, tspace, max_speed))
+        keep = ~(outliers_at_mean(xyz, valid, tspace, max_speed) if at_mean else outliers(xyz, valid, tspace, max_speed))
     for m in range(M):
         stats[1] += not keep[m]
         if not keep[m]:
@@ -353,6 +353,6 @@ def warm_up() -> None:
         plane_stage(s.box, s.observed, s.camera, s.rig.arrays, planes, given, rules)
     i2, space = np.arange(2, dtype=np.int64), np.array([-1.0, -1.0, 0.0, 1.0, 1.0, 3.0])
     for D2, person in ((np.zeros((0, 0)), NO_GROUP), (np.zeros((2, 2)), i2)):
-        for by_place, pspace in ((True, space), (False, space[:0])):
+        for at_mean, pspace in ((True, space), (False, space[:0])):
             plane_split(s.box, s.observed, s.camera, i2, i2, D2, 1.0, person, i2, i2, s.rig.arrays, planes, rules, space,
-                        0.5, by_place, pspace)
+                        0.5, at_mean, pspace)

@@ -3,7 +3,7 @@
 :func:`cluster_points` gathers the centre, top-centre and bottom-centre pixels of every cluster
 and frame of a window, views-major, for Eq. 3 (:func:`gymtrack.geometry.primitives.triangulate_points`,
 the same solver the public :func:`gymtrack.geometry.triangulation.triangulate` runs);
-:func:`outliers` is Eq. 4 (:func:`outliers_by_place`, ``cascade+``'s: the space test on the
+:func:`outliers` is Eq. 4 (:func:`outliers_at_mean`, ``cascade+``'s: the space test on the
 mean position); :func:`opposite_clusters` and :func:`segments_of`: the cascade's (III-C)
 two-view opposite clusters and the segments it hands the plane. Numpy references: ``tests/reference/reconstruct.py``.
 """
@@ -87,8 +87,8 @@ def outliers(xyz, valid, space, max_speed):
 
 
 @njit(cache=True)
-def outliers_by_place(xyz, valid, space, max_speed):
-    """``cascade+``'s Eq. 4, :func:`gymtrack.tracking.reconstruct.outliers_by_place`: the speed test
+def outliers_at_mean(xyz, valid, space, max_speed):
+    """``cascade+``'s Eq. 4, :func:`gymtrack.tracking.reconstruct.outliers_at_mean`: the speed test
     on consecutive valid points, the tracking-space test on the mean of the valid points."""
     M, W = valid.shape
     bad = np.zeros(M, np.bool_)
@@ -166,7 +166,7 @@ def warm_up() -> None:
     X, _ = triangulate_points(s.rig.arrays.P, u, v, np.isfinite(u), 1)
     xyz = np.ascontiguousarray(X.reshape(3, 3, 1, -1)[:, 0].transpose(1, 2, 0))
     outliers(xyz, np.isfinite(xyz).all(axis=2), np.array([-5.0, -5.0, 0.0, 5.0, 5.0, 3.0]), 0.5)
-    outliers_by_place(xyz, np.isfinite(xyz).all(axis=2), np.array([-5.0, -5.0, 0.0, 5.0, 5.0, 3.0]), 0.5)
+    outliers_at_mean(xyz, np.isfinite(xyz).all(axis=2), np.array([-5.0, -5.0, 0.0, 5.0, 5.0, 3.0]), 0.5)
     members = np.array([[0, 1], [-1, 2]], np.int64)
     opposite_clusters(members, np.ones((2, 2), bool))
     segments_of(members, np.ones(2, bool))

@@ -1,0 +1,206 @@
+"""The tracker's recipes (gymtrack.modes.Method): the named table, and each ingredient of cascade+
+switched off alone on a short simulated routine, checked for what it changes (its counters and
+its effect on the tracks), not only that it runs.
+
+Routines: still rings, 4 views, 15 s at 30 fps (a judge or coach on the floor, wrong two-view
+pairs in the air, a duplicate track born beside an older one), with ray/plane fusion and online
+plane refinement asked for by the scene; and a balance beam at 3 fps (every 10th frame), where
+people move more than their width between frames.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gymtrack.detections import Detections
+from gymtrack.errors import InputError
+from gymtrack.modes import DEFAULT_MODE, INGREDIENTS, MODES, RECIPES, Method, method_of
+from gymtrack.simulate.routine import simulate_routine
+from gymtrack.tracking import Tracker
+from gymtrack.tracking.offline import track_detections
+
+PLUS = RECIPES["cascade+"]
+
+
+def _asking(scene):
+    """The scene asking for the scene-gated ingredients (fusion, online plane refinement)."""
+    return scene.model_copy(update={"params": scene.params.model_copy(update={"fuse_plane": True, "refine_plane": 20})})
+
+
+@pytest.fixture(scope="module")
+def rings():
+    sim = simulate_routine("still_rings", n_cam=4, seed=0, seconds=15)
+    return sim.rig, _asking(sim.scene), sim.detections, sim.scene
+
+
+@pytest.fixture(scope="module")
+def beam_3fps():
+    sim = simulate_routine("balance_beam", n_cam=3, seed=0, seconds=40)
+    d, k = sim.detections, 10
+    keep = d.frame % k == 0
+    det = Detections(d.frame[keep] // k, d.camera[keep], d.box[keep], d.score[keep], d.track_id[keep], d.camera_names)
+    return sim.rig, sim.scene.model_copy(update={"fps": 3.0}), det
+
+
+_CACHE: dict = {}
+
+
+def _run(routine, method, key):
+    """One tracker run per (routine, recipe), shared by the tests of this module."""
+    if (key, method) not in _CACHE:
+        rig, scene, det = routine[:3]
+        _CACHE[key, method] = track_detections(rig, scene, det, mode=method)
+    return _CACHE[key, method]
+
+
+def _same(a, b) -> bool:
+    """Identical 3D tracks and target."""
+    return (np.array_equal(a.tracks.frame, b.tracks.frame) and np.array_equal(a.tracks.track_id, b.tracks.track_id)
+            and np.array_equal(a.tracks.xyz, b.tracks.xyz, equal_nan=True)
+            and np.array_equal(a.target.frame, b.target.frame) and np.array_equal(a.target.xyz, b.target.xyz, equal_nan=True))
+
+
+# ----------------------------------------------------------------------------- the table
+def test_recipes_table_names_the_modes_and_cascade_plus_has_every_ingredient():
+    assert MODES == ("cascade", "triangulation", "plane", "cascade+") and DEFAULT_MODE in MODES
+    assert RECIPES["cascade"] == Method(name="cascade")  # the paper's method: every ingredient off
+    assert (RECIPES["triangulation"].plane, RECIPES["plane"].plane, RECIPES["cascade"].plane) == ("none", "all", "rest")
+    for ing in INGREDIENTS:  # cascade+ is the cascade with each ingredient on
+        assert getattr(PLUS, ing) != getattr(RECIPES["cascade"], ing), ing
+        assert getattr(PLUS.without(ing), ing) == getattr(RECIPES["cascade"], ing)
+        assert getattr(RECIPES["cascade"].adding(ing), ing) == getattr(PLUS, ing)
+    assert PLUS.without("floor").name == "cascade+ -floor"
+    with pytest.raises(ValueError):
+        Method(plane="sideways")
+    with pytest.raises(ValueError):
+        method_of("cascade++")
+
+
+def test_tracker_takes_a_recipe_or_a_name(rings):
+    rig, scene, _, _ = rings
+    assert Tracker(rig, scene, "cascade").method is RECIPES["cascade"]
+    assert Tracker(rig, scene, method=PLUS.without("floor")).mode == "cascade+ -floor"
+    assert Tracker(rig, scene, mode="plane").method.plane == "all"  # the older keyword
+    with pytest.raises(InputError, match="unknown mode"):
+        Tracker(rig, scene, method="magic")
+
+
+def test_a_name_is_only_a_name_for_its_recipe(rings):
+    by_name = _run(rings, "cascade", "rings")
+    custom = track_detections(*rings[:3], mode=Method(name="mine"))
+    assert _same(by_name, custom) and by_name.summary["tracks"] == custom.summary["tracks"]
+    assert "recipe" not in by_name.summary and custom.summary["recipe"]["floor"] is False
+
+
+# ----------------------------------------------------------------------------- one ingredient off at a time
+def test_floor_takes_people_on_the_floor_off_the_apparatus_plane(rings):
+    on, off = _run(rings, PLUS, "rings").summary, _run(rings, PLUS.without("floor"), "rings").summary
+    assert on["floor_tracklets"] > 0 and on["segments_to_floor"] > 0
+    assert off["floor_tracklets"] == off["segments_to_floor"] == off["links_2d"] == 0
+    assert off["segments_to_plane"] > on["segments_to_plane"]  # without it they all go to the plane stage
+
+
+def test_ghost_test_drops_two_view_clusters_floating_off_the_apparatus(rings):
+    on, off = _run(rings, PLUS, "rings"), _run(rings, PLUS.without("ghost_test"), "rings")
+    assert on.summary["floor_ghosts"] > 0 and off.summary["floor_ghosts"] == 0
+    assert "floor_ghosts_confirmed" not in off.summary
+    assert off.summary["clusters_triangulated"] > on.summary["clusters_triangulated"]  # the ghosts stay triangulated
+    assert not _same(on, off)
+
+
+def test_outliers_at_mean_keeps_tracklets_whose_mean_is_inside(rings):
+    on, off = _run(rings, PLUS, "rings"), _run(rings, PLUS.without("outliers_at_mean"), "rings")
+    # every point inside S_track (the paper) is stricter than the mean inside
+    assert off.summary["tracklets_outliers"] > on.summary["tracklets_outliers"]
+    assert not _same(on, off)
+
+
+def test_fusion_replaces_two_view_points_where_the_scene_asks(rings):
+    on, off = _run(rings, PLUS, "rings"), _run(rings, PLUS.without("fusion"), "rings")
+    assert on.summary["fused_plane"] > 0 and off.summary["fused_plane"] == 0 and "fused_inconsistent" not in off.summary
+    assert not _same(on, off)
+    # scene-gated: a scene that does not ask gets the same tracks with or without the ingredient
+    plain = (rings[0], rings[3], rings[2])
+    assert _same(_run(plain, PLUS.without("refine_plane"), "plain"),
+                 _run(plain, PLUS.without("refine_plane").without("fusion"), "plain"))
+
+
+def test_refine_plane_refits_the_plane_where_the_scene_asks(rings):
+    on, off = _run(rings, PLUS, "rings"), _run(rings, PLUS.without("refine_plane"), "rings")
+    assert on.summary["plane_refinement"]["refits"] > 0 and "plane_refinement" not in off.summary
+    assert not _same(on, off)
+
+
+def test_keep_older_hands_a_duplicates_continuation_the_older_id(rings):
+    on, off = _run(rings, PLUS, "rings"), _run(rings, PLUS.without("keep_older"), "rings")
+    assert on.summary["links_older"] >= 1 and "links_older" not in off.summary
+    assert not np.array_equal(on.tracks.track_id, off.tracks.track_id)
+    # the older id lives on: no track of the run with it starts later than its counterpart without it
+    assert on.summary["tracks"] <= off.summary["tracks"]
+
+
+def test_exclusion_leaves_duplicate_points_out_of_the_tracks_only(rings):
+    on, off = _run(rings, PLUS, "rings"), _run(rings, PLUS.without("exclusion"), "rings")
+    left_out = on.summary["points_suppressed"] + on.summary["points_superseded"]
+    assert left_out > 0 and len(off.tracks) - len(on.tracks) == left_out
+    key = lambda r: set(zip(r.tracks.frame.tolist(), r.tracks.track_id.tolist()))
+    assert key(on) < key(off)  # the same points, some left out
+    assert np.array_equal(on.target.xyz, off.target.xyz, equal_nan=True)  # the target keeps every point
+
+
+def test_best_estimates_changes_only_the_merged_points(rings):
+    # (without the exclusion, whose 0.5 m test would see the moved points)
+    base = PLUS.without("exclusion")
+    on, off = _run(rings, base, "rings"), _run(rings, base.without("best_estimates"), "rings")
+    assert np.array_equal(on.tracks.frame, off.tracks.frame) and np.array_equal(on.tracks.track_id, off.tracks.track_id)
+    moved = np.linalg.norm(on.tracks.xyz - off.tracks.xyz, axis=1)
+    assert 0 < np.count_nonzero(moved > 1e-9) < len(moved)  # some frames' Eq. 12 average differs, most not
+
+
+def test_solo_inside_drops_one_view_tracklets_outside_the_performance_space(rings):
+    on, off = _run(rings, PLUS, "rings"), _run(rings, PLUS.without("solo_inside"), "rings")
+    assert on.summary["plane_single_view_outside"] > 0 and off.summary["plane_single_view_outside"] == 0
+    assert off.summary["plane_tracklets"] > on.summary["plane_tracklets"]
+
+
+def test_image_motion_joins_a_views_boxes_at_a_low_frame_rate_only(rings, beam_3fps):
+    on, off = _run(beam_3fps, PLUS, "beam"), _run(beam_3fps, PLUS.without("image_motion"), "beam")
+    assert on.summary["links_2d_motion"] > 0 and "links_2d_motion" not in off.summary
+    assert off.summary["tracks"] > on.summary["tracks"]  # without it the views' tracks break into more 3D tracks
+    assert _same(_run(rings, PLUS, "rings"), _run(rings, PLUS.without("image_motion"), "rings"))  # 30 fps: the IoU tracker
+
+
+def test_motion_link_continues_3d_tracks_with_a_views_new_2d_track(beam_3fps):
+    on, off = _run(beam_3fps, PLUS, "beam"), _run(beam_3fps, PLUS.without("motion_link"), "beam")
+    assert on.summary["links_3d_motion"] > 0 and "links_3d_motion" not in off.summary
+    # the renamed 2D tracks are longer: fewer segments too short for a window
+    assert off.summary["segments_dropped_short"] > on.summary["segments_dropped_short"]
+
+
+def test_hold_seconds_holds_no_end_box_at_a_low_frame_rate(rings, beam_3fps):
+    on, off = _run(beam_3fps, PLUS, "beam"), _run(beam_3fps, PLUS.without("hold_seconds"), "beam")
+    assert Tracker(*beam_3fps[:2], PLUS).hold == 0 and Tracker(*beam_3fps[:2], PLUS.without("hold_seconds")).hold == 2
+    assert not _same(on, off)
+    assert _same(_run(rings, PLUS, "rings"), _run(rings, PLUS.without("hold_seconds"), "rings"))  # 30 fps: max_age
+
+
+# ----------------------------------------------------------------------------- the command line
+def test_track_command_switches_an_ingredient_off(tmp_path):
+    import json
+
+    from typer.testing import CliRunner
+
+    from gymtrack.cli import app
+
+    routine = tmp_path / "routine"
+    simulate_routine("still_rings", n_cam=4, seed=0, seconds=10, out=routine)
+    r = CliRunner().invoke(app, ["track", str(routine), "--out", str(tmp_path / "out"), "--without", "floor"])
+    assert r.exit_code == 0, r.output
+    s = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert s["mode"] == "cascade+ -floor" and s["recipe"]["floor"] is False and s["recipe"]["ghost_test"] is True
+    assert s["floor_tracklets"] == 0 and "floor_single_view" not in s
+    bad = CliRunner().invoke(app, ["track", str(routine), "--out", str(tmp_path / "bad"), "--without", "flor"])
+    # (the installed command turns an InputError into one line and exit status 2)
+    assert isinstance(bad.exception, InputError) and "unknown ingredient 'flor'" in str(bad.exception)
+    assert not (tmp_path / "bad").exists()  # nothing written
