@@ -209,6 +209,11 @@ def test_bvh_error_only_where_a_bone_length_changes(tmp_path):
         assert np.delete(err.ravel(), 60 * 17 + a).max() < 1e-4
 
 
+@pytest.fixture(autouse=True)
+def _opensim_log_elsewhere(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)  # OpenSim writes opensim.log into the working directory when first imported
+
+
 def test_mot_header_as_opensim_expects(routine_out, tmp_path):
     from gymtrack.formats.elements import ANGLE_MEASURES, ANGLES_COLUMNS, write_angles
 
