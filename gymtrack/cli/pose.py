@@ -46,6 +46,18 @@ def model_poses(routine, result, model, models_yaml, device, all_tracks: bool):
     return run.poses
 
 
+def empty_reason(summary: dict) -> str:
+    """Why no pose was lifted, from the stage's counts, and what to change."""
+    read = summary.get("read", 0)
+    if summary.get("rejected_frame", 0) == read:
+        return ("every pose's frame lies outside the track output's frames: the keypoints' frame numbers must be "
+                "the detections' (OpenPose counts from 0, MOTChallenge from 1: renumber one of them)")
+    if summary.get("unknown_track", 0) + summary.get("unassigned", 0) + summary.get("rejected", 0) >= read:
+        return ("no pose could be given a track: none overlaps a tracked box (min IoU 0.3) in its frame and view; "
+                "check that the keypoints and the detections come from the same videos and frame numbers")
+    return "the assigned poses had no joint seen by two views; check the cameras' matching (printed above)"
+
+
 def pose_summary_table(summary: dict, title: str = "Pose stage") -> Table:
     """Where every input pose went, and what was lifted."""
     t = Table(title=title, title_justify="left")
@@ -54,11 +66,14 @@ def pose_summary_table(summary: dict, title: str = "Pose stage") -> Table:
     rows = [
         ("poses read", "read"), ("  with a track id already", "given"), ("  assigned to a track here", "assigned"),
         ("  unassigned (no track box overlaps)", "unassigned"), ("  rejected: no joint found", "rejected_no_joints"),
-        ("  rejected: frame outside the track output", "rejected_frame"), ("assigned poses lifted", "used"),
+        ("  rejected: frame outside the track output", "rejected_frame"),
+        ("  track_id naming no track of the output", "unknown_track"), ("assigned poses lifted", "used"),
         ("  duplicates (same track, frame, view)", "duplicate"), ("  not lifted (track not lifted)", "not_lifted"),
+        ("joint scores above 1, clipped", "scores_clipped"), ("tracks without a 2D pose (no skeleton)", "tracks_without_pose"),
         ("frames with a 3D pose", "frames_with_pose"), ("tracks with a 3D pose", "tracks_with_pose"),
         ("joints triangulated", "joints_triangulated"), ("joints on the plane only", "joints_plane"),
-        ("joints fused (rays + plane)", "joints_fused"),
+        ("joints fused (rays + plane)", "joints_fused"), ("bone length variation over frames", "bone_length_cv"),
+        ("left/right limb difference", "left_right_asymmetry"),
     ]
     for label, key in rows:
         if key in summary:
@@ -103,6 +118,9 @@ def pose(
             poses = routine_poses(r, result, keypoints, simulated_model, all_tracks, seed)
     with console.status(f"lifting ({lift})"):
         res = lift_poses(result, r.rig, r.scene, poses, all_tracks=all_tracks, method=lift)
+    if not len(res.poses3d):
+        console.print(pose_summary_table(res.summary()))
+        raise InputError("no 3D pose: " + empty_reason(res.summary()), field="keypoints")
     inputs = {"routine": str(routine), "lift": lift, "all_tracks": all_tracks,
               "keypoints": (f"pose model {model or models_yaml}" if use_model else "simulated model" if simulated_model
                             else str(keypoints or Path(routine) / "keypoints"))}
