@@ -20,7 +20,8 @@ from rich.console import Console
 from rich.table import Table
 
 from gymtrack.cli import app
-from gymtrack.cli.options import calibration_format_option, read_routine, silent_seconds_option, strict_option, units_option
+from gymtrack.cli.options import (calibration_format_option, calibration_option, keypoints_option, read_routine,
+                                  silent_seconds_option, skeleton_option, strict_option, units_option)
 from gymtrack.cli.report import REPORTER
 from gymtrack.formats.checks import StreamChecks
 from gymtrack.formats.routine import Routine
@@ -154,6 +155,9 @@ def info(
     routine: Optional[Path] = typer.Argument(None, help="routine folder (cameras.yaml, scene.yaml, detections/<camera>.txt)"),
     calibration_format: Optional[str] = calibration_format_option(),
     units: Optional[str] = units_option(),
+    calibration: Optional[Path] = calibration_option(),
+    keypoints: Optional[Path] = keypoints_option(),
+    skeleton: Optional[str] = skeleton_option(),
     silent_seconds: float = silent_seconds_option(),
     strict: bool = strict_option(),
     system: bool = typer.Option(False, "--system", help="print versions, the numba cache and CPUs (for a bug report)"),
@@ -175,6 +179,6 @@ def info(
             return
     if routine is None:
         raise InputError("give a routine folder (gymtrack info <routine>), or --system", field="ROUTINE")
-    r, checks = read_routine(routine, calibration_format, units, silent_seconds)
+    r, checks = read_routine(routine, calibration_format, units, silent_seconds, calibration, keypoints, skeleton)
     print_routine_info(r, console, checks)
     REPORTER.check_strict(strict)

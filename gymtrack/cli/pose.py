@@ -24,7 +24,7 @@ from rich.console import Console
 from rich.table import Table
 
 from gymtrack.cli import app
-from gymtrack.cli.options import calibration_format_option, read_routine, units_option
+from gymtrack.cli.options import calibration_format_option, calibration_option, read_routine, skeleton_option, units_option
 from gymtrack.cli.report import interrupts
 
 console = Console()
@@ -85,7 +85,10 @@ def pose_summary_table(summary: dict, title: str = "Pose stage") -> Table:
 def pose(
     routine: Path = typer.Argument(..., help="routine folder (cameras.yaml, scene.yaml, detections/, keypoints/ or gt/)"),
     out: Path = typer.Argument(..., help="the track output folder of `gymtrack track`; poses are written into it"),
-    keypoints: Optional[Path] = typer.Option(None, "--keypoints", "-k", help="2D poses folder (default: ROUTINE/keypoints)"),
+    keypoints: Optional[Path] = typer.Option(None, "--keypoints", "-k", help="2D poses folder, any layout the keypoints "
+                                             "readers take (default: ROUTINE/keypoints, else Pose2Sim's ROUTINE/pose)"),
+    skeleton: Optional[str] = skeleton_option(),
+    calibration: Optional[Path] = calibration_option(),
     simulated_model: bool = typer.Option(False, "--simulated-model", help="run the simulated pose model on the boxes in OUT (needs ROUTINE/gt)"),
     all_tracks: bool = typer.Option(False, "--all-tracks", help="lift every 3D track, not only the target"),
     lift: str = typer.Option("robust", "--lift", help="dlt | robust"),
@@ -109,13 +112,20 @@ def pose(
     use_model = model is not None or models_yaml is not None
     if sum([simulated_model, keypoints is not None, use_model]) > 1:
         raise InputError("give one of --keypoints, --simulated-model, --model", field="--keypoints")
-    r, _ = read_routine(routine, calibration_format, units)
+    from gymtrack.formats.keypoints import KeypointsReport
+
+    r, _ = read_routine(routine, calibration_format, units, calibration=calibration,
+                        keypoints=None if simulated_model or use_model else keypoints, skeleton=skeleton)
     result = read_track_result(out, r.rig.names)
+    report = KeypointsReport()
     if use_model:
         poses = model_poses(r, result, model, models_yaml, device, all_tracks)
     else:
         with console.status("running the simulated pose model on the boxes" if simulated_model else "reading the 2D poses"):
-            poses = routine_poses(r, result, keypoints, simulated_model, all_tracks, seed)
+            poses = routine_poses(r, result, keypoints, simulated_model, all_tracks, seed, skeleton, report)
+        if report.sources and r.keypoints_report is None:  # not printed yet by read_routine
+            for line in report.lines():
+                console.print(f"2D poses: {line}", highlight=False, soft_wrap=True)
     with console.status(f"lifting ({lift})"):
         res = lift_poses(result, r.rig, r.scene, poses, all_tracks=all_tracks, method=lift)
     if not len(res.poses3d):
@@ -123,7 +133,7 @@ def pose(
         raise InputError("no 3D pose: " + empty_reason(res.summary()), field="keypoints")
     inputs = {"routine": str(routine), "lift": lift, "all_tracks": all_tracks,
               "keypoints": (f"pose model {model or models_yaml}" if use_model else "simulated model" if simulated_model
-                            else str(keypoints or Path(routine) / "keypoints"))}
+                            else str(keypoints or r.keypoints_path or Path(routine) / "keypoints"))}
     with interrupts(), atomic_update(out, "pose", inputs) as staging:  # all or nothing, into the track output
         write_keypoints(staging / "keypoints", res.poses2d)
         write_poses_3d(staging / "poses_3d.csv", res.poses3d)
