@@ -21,6 +21,7 @@ from ..skeletons import SKELETONS, Skeleton, custom_skeleton, get_skeleton
 from .textfile import read_text, what_is
 
 _NUMBER = re.compile(r"\d+")
+_PLAIN = {float, int}
 
 
 class PoseRows:
@@ -87,14 +88,17 @@ def integer(v: Any, what: str, src: Path, field: str, minimum: int) -> int:
 
 def triples(flat: list, J: int, src: Path, field: str) -> np.ndarray:
     """(J, 3) ``[x, y, score]`` from a flat list of 3*J values; None/NaN x or y = not found."""
-    out = np.empty(3 * J)
-    for i, v in enumerate(flat):
-        if v is None and i % 3 < 2:
-            out[i] = np.nan
-            continue
-        if not is_number(v):
-            raise InputError(f"joint {i // 3} {'xys'[i % 3]} must be a number, got {v!r}", source=src, field=field)
-        out[i] = v
+    if set(map(type, flat)) <= _PLAIN:  # the usual file: plain numbers, one numpy call
+        out = np.array(flat, dtype=np.float64)
+    else:
+        out = np.empty(3 * J)
+        for i, v in enumerate(flat):
+            if v is None and i % 3 < 2:
+                out[i] = np.nan
+                continue
+            if not is_number(v):
+                raise InputError(f"joint {i // 3} {'xys'[i % 3]} must be a number, got {v!r}", source=src, field=field)
+            out[i] = v
     kp = out.reshape(J, 3)
     if np.isinf(kp[:, :2]).any():
         raise InputError(f"joint {int(np.isinf(kp[:, :2]).any(1).argmax())} has an infinite coordinate",
