@@ -201,6 +201,11 @@ def keypoint_sources(root: str | Path, camera_names: Sequence[str]) -> tuple[dic
         if len(es) > 1:
             raise InputError(f"camera {stem!r} has both {es[0].name} and {es[1].name}; keep one", source=root)
     m = match_cameras(list(entries), camera_names)
+    if m.unmatched_entries and m.unmatched_cameras:
+        names = [entries[e][0].name for e in m.unmatched_entries]
+        raise InputError(f"{', '.join(names)} cannot be matched to the cameras {', '.join(m.unmatched_cameras)}: the "
+                         f"names differ and there are {len(names)} for {len(m.unmatched_cameras)} cameras (sorted order "
+                         "needs as many); name them after the calibration's cameras", source=root)
     if m.unmatched_entries:
         extra = [entries[e][0] for e in m.unmatched_entries]
         raise InputError(f"names no camera of {list(camera_names)} (expected <camera>.json, <camera>/ or "
