@@ -122,6 +122,25 @@ def scene_table(scene: Scene) -> Table:
     return t
 
 
+def video_size_lines(routine: Routine) -> list[str]:
+    """One line per camera video in ``videos/``: its size against the calibration's (another size
+    warns through :func:`gymtrack.formats.video.size_scale`; ``--strict`` makes it exit 3)."""
+    from gymtrack.formats.video import VideoReader, find_videos, size_scale
+
+    if not (routine.path / "videos").is_dir():
+        return []
+    out = []
+    for name, path in find_videos(routine.path, routine.rig.names).items():
+        with VideoReader(path) as r:
+            size = r.size
+        cam = routine.rig[routine.rig.names.index(name)]
+        calibrated = tuple(int(v) for v in cam.size)
+        scale = size_scale(name, calibrated, size, path)
+        out.append(f"video {path.name}: {size[0]}x{size[1]}" + ("" if scale == 1 else f", scaled by {scale:.4f} to the "
+                                                                   f"calibrated {calibrated[0]}x{calibrated[1]}"))
+    return out
+
+
 def print_routine_info(routine: Routine, console: Console | None = None, checks: StreamChecks | None = None) -> None:
     """Print every table of ``gymtrack info`` for a loaded routine (and its stream checks)."""
     console = console or Console()
@@ -133,6 +152,8 @@ def print_routine_info(routine: Routine, console: Console | None = None, checks:
     for note in rep.notes:
         console.print(f"  note: {note}", highlight=False)
     console.print(cameras_table(routine.rig))
+    for line in video_size_lines(routine):
+        console.print(line, highlight=False)
     console.print(opposite_table(routine.rig, routine.scene))
     console.print(detections_table(routine, checks))
     if checks and checks.frame_range:
