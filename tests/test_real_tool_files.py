@@ -179,3 +179,33 @@ def test_boxes_from_poses_cover_the_person(tmp_path):
     kp = p.keypoints[0]
     assert x - w / 2 < kp[:, 0].min() and x + w / 2 > kp[:, 0].max()  # every joint inside, with padding
     assert y - h / 2 < kp[:, 1].min() - 30 and kp[:, 1].max() < y + h / 2 < kp[:, 1].max() + 30
+
+
+def test_floor_below_zero_allowed_and_reported(tmp_path):
+    """A venue whose calibrated floor lies 5 cm below z = 0: h_bot below 0 is accepted within the
+    tracking space, and `gymtrack info` says where the standing people's box bottoms lie."""
+    from dataclasses import replace
+
+    from typer.testing import CliRunner
+
+    from gymtrack.cli import app
+    from gymtrack.errors import SceneError
+    from gymtrack.formats.floor_check import standing_bottoms
+    from gymtrack.formats.scene import scene_from_dict
+    from gymtrack.geometry.camera import Rig
+    from gymtrack.simulate import simulate_routine
+
+    sim = simulate_routine("vault", n_cam=4, seed=5, seconds=10)
+    flat = standing_bottoms(sim.detections, sim.rig)
+    lowered = Rig([replace(c, t=c.t + c.R @ [0.0, 0.0, 0.05]) for c in sim.rig])  # world z shifted: floor at -0.05
+    low = standing_bottoms(sim.detections, lowered)
+    assert low.median == pytest.approx(flat.median - 0.05, abs=0.01)
+    s = scene_from_dict({"apparatus": "vault", "performance_space": [-10, -3, -0.1, 10, 3, 4],
+                         "target": {"h_top": 1.9, "h_bot": -0.05}})
+    assert s.target.h_bot == -0.05
+    with pytest.raises(SceneError, match="h_bot .* below the tracking space's floor"):
+        scene_from_dict({"apparatus": "vault", "target": {"h_top": 1.9, "h_bot": -0.05}})
+    routine = sim.write(tmp_path / "r")
+    r = CliRunner().invoke(app, ["info", str(routine)])
+    assert r.exit_code == 0, r.output
+    assert f"floor: standing people's box bottoms lie at z = {flat.median:+.2f} m" in r.output

@@ -164,6 +164,17 @@ def print_routine_info(routine: Routine, console: Console | None = None, checks:
     if routine.ignored:
         console.print(f"ignored in detections/ (not .txt): {', '.join(p.name for p in routine.ignored)}", highlight=False)
     console.print(scene_table(routine.scene))
+    from gymtrack.formats.floor_check import standing_bottoms
+
+    floor = standing_bottoms(routine.detections, routine.rig)
+    sc = routine.scene
+    if floor is None:
+        console.print("floor: too few standing people seen by two views to say where the box bottoms lie", highlight=False)
+    else:
+        console.print(f"floor: {floor.describe()}; target.h_bot is {sc.target.h_bot:g} m above z = 0", highlight=False)
+        advice = floor.advice(sc.performance_space[2], sc.target.h_bot)
+        if advice:
+            REPORTER.warn(advice)
     if routine.has_gt:
         have = ", ".join(routine.gt) or "no known files"
         console.print(f"ground truth: gt/ ({have})", highlight=False)
