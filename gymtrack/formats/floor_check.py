@@ -3,7 +3,7 @@
 Paper: Eq. 13 identifies the target by its box top above ``h_top`` and its box bottom above
 ``h_bot``; both heights assume the calibrated floor at z = 0. A real venue's floor is often a few
 centimetres off (the calibration board lay on a mat, the origin on a podium), and then a person
-standing still has box bottoms at -0.04 m, not 0. ``gymtrack info`` reports where they lie so the
+standing still has box bottoms at -0.1 m, not at the -0.03 m a detector's box reaches below the soles. ``gymtrack info`` reports where they lie so the
 user can set ``h_bot`` and ``performance_space`` to the floor that is.
 
 Method: in up to ``max_frames`` frames, every pair of boxes of two views whose centres agree
@@ -37,10 +37,10 @@ class FloorEstimate:
 
     def advice(self, zmin: float, h_bot: float) -> str | None:
         """What to change in scene.yaml when the floor lies below the performance space or h_bot."""
-        if self.median < zmin - 0.02:
-            return (f"the floor people stand on (z = {self.median:+.2f} m) lies below the performance space's zmin "
-                    f"({zmin:g} m): lower performance_space's zmin to about {self.median - 0.05:.2f}, and measure "
-                    f"target.h_bot ({h_bot:g} m) from that floor")
+        if self.median < zmin - 0.1:  # boxes reach a few cm below the soles: only a clear offset is news
+            return (f"standing people's box bottoms (z = {self.median:+.2f} m) lie below the performance space's zmin "
+                    f"({zmin:g} m): the calibrated floor is off z = 0; lower performance_space's zmin to about "
+                    f"{self.median - 0.05:.2f}, and measure target.h_bot ({h_bot:g} m) from that floor")
         return None
 
     def describe(self) -> str:
