@@ -64,8 +64,13 @@ def test_openpose_names_frames_and_scores_above_one(tmp_path):
     _openpose_folder(tmp_path / "kp" / "cam1", lambda f: f"run_{f:012d}_keypoints.json", range(30), score=1.0373)
     # Pose2Sim's naming <camera>.<4-digit index>.json, and a camera number before the frame
     _openpose_folder(tmp_path / "kp" / "cam2", lambda f: f"Static_cam_02.{f:05d}.json", range(0, 30, 3), score=0.8)
+    (tmp_path / "kp" / "cam1_pose.mp4").write_bytes(b"\0")  # what Pose2Sim writes beside the *_json folders
+    (tmp_path / "kp" / "cam1_img").mkdir()
+    for c in ("cam1", "cam2"):
+        (tmp_path / "kp" / c).rename(tmp_path / "kp" / f"{c}_json")
     rep = KeypointsReport()
     p = read_keypoints(tmp_path / "kp", ("cam1", "cam2"), report=rep)
+    assert "not read (beside the *_json folders): cam1_img, cam1_pose.mp4" in rep.lines()
     assert p.skeleton == BODY25 and rep.skeleton_how == "recognised from the joint count and layout"
     assert sorted(set(p.frame[p.camera == 1].tolist())) == list(range(0, 30, 3))  # the last number, not 2
     assert rep.scores_above_1 == 30 * 2 * 25 and rep.max_score == pytest.approx(1.0373)

@@ -66,6 +66,7 @@ class KeypointsReport:
     scores_above_1: int = 0
     max_score: float = 0.0
     unused_joints: int = 0
+    ignored: list[Path] = field(default_factory=list)
 
     def lines(self) -> list[str]:
         out = [f"camera {c} <- {p} (by {self.matched_by.get(c, 'name')})" for c, p in self.sources.items()]
@@ -74,6 +75,8 @@ class KeypointsReport:
         if self.scores_above_1:
             out.append(f"{self.scores_above_1} joint scores above 1 (up to {self.max_score:.4g}): read, clipped to 1 "
                        "for weighting")
+        if self.ignored:
+            out.append(f"not read (beside the *_json folders): {', '.join(p.name for p in self.ignored)}")
         if self.unused_joints:
             out.append(f"{self.unused_joints} joints per pose not used (COCO-WholeBody's face and hands)")
         return out
@@ -182,16 +185,23 @@ def read_keypoints_file(path: str | Path, camera_index: int, camera_names: Seque
     return _finish([rows], camera_names, [camera_index], skeleton, report or KeypointsReport())
 
 
-def keypoint_sources(root: str | Path, camera_names: Sequence[str]) -> tuple[dict[str, Path], dict[str, str]]:
+def keypoint_sources(root: str | Path, camera_names: Sequence[str],
+                     ignored: list[Path] | None = None) -> tuple[dict[str, Path], dict[str, str]]:
     """camera -> its poses' file or folder in ``root``, and how each was matched (by name, a similar
     name -- ``cam01_json`` for ``cam_01`` -- or sorted order). Entries: ``<camera>.json`` files and
-    ``<camera>/`` or ``<camera>_json/`` folders; hidden entries are ignored. An entry that names no
-    camera, a camera without one, or a camera with two, is an error naming the folder."""
+    ``<camera>/`` or ``<camera>_json/`` folders; hidden entries are ignored. Where ``*_json/``
+    folders exist (Pose2Sim's ``pose/``), only they are read: the pose videos and image folders
+    Pose2Sim writes beside them are appended to ``ignored`` (reported, not read). An entry that
+    names no camera, a camera without one, or a camera with two, is an error naming the folder."""
     root = Path(root)
     entries: dict[str, list[Path]] = {}
-    for e in sorted(root.iterdir()):
-        if e.name.startswith("."):
-            continue
+    listing = [e for e in sorted(root.iterdir()) if not e.name.startswith(".")]
+    if any(e.is_dir() and e.name.lower().endswith("_json") for e in listing):
+        others = [e for e in listing if not (e.is_dir() and e.name.lower().endswith("_json"))]
+        listing = [e for e in listing if e not in others]
+        if ignored is not None:
+            ignored.extend(others)
+    for e in listing:
         if e.is_file() and e.suffix.lower() != ".json":
             raise InputError("not a keypoints file (<camera>.json) or folder (<camera>/, <camera>_json/): move it out",
                              source=e)
@@ -237,7 +247,7 @@ def read_keypoints(path_or_folder: str | Path, camera_names: Sequence[str], skel
             raise InputError(f"file name must be <camera>.json with a camera of {list(camera_names)}", source=root)
         report.sources = {root.stem: root}
         return read_keypoints_file(root, camera_names.index(root.stem), camera_names, skeleton, report).sorted()
-    sources, how = keypoint_sources(root, camera_names)
+    sources, how = keypoint_sources(root, camera_names, report.ignored)
     report.sources, report.matched_by = sources, how
     if "sorted order" in how.values():
         pairs = ", ".join(f"{c} <- {sources[c].name}" for c in sources if how[c] == "sorted order")
