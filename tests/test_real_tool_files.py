@@ -152,6 +152,11 @@ def test_wholebody_133_and_halpe26_through_pose2sim(tmp_path):
     _openpose_folder(tmp_path / "pose" / "cam01_json", lambda f: f"cam01.{f:04d}.json", range(12), sk=HALPE26)
     assert read_keypoints_file(tmp_path / "pose" / "cam01_json", 0, ("c",)).skeleton == HALPE26
     assert get_skeleton("HALPE_26") is HALPE26 and get_skeleton("COCO_133") is COCO_WHOLEBODY
+    # any named joint list, in file order
+    p = read_keypoints_file(tmp_path / "pose" / "cam01_json", 0, ("c",), skeleton=",".join(f"j{i}" for i in range(26)))
+    assert p.skeleton.name == "custom" and p.skeleton.joints[25] == "j25"
+    assert read_keypoints_file(tmp_path / "pose" / "cam01_json", 0, ("c",), skeleton=",".join(HALPE26.joints)).skeleton \
+        is HALPE26
 
 
 def test_cameras_matched_by_name_similar_name_or_sorted_order(tmp_path):

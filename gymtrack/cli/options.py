@@ -45,7 +45,8 @@ def keypoints_option() -> Optional[Path]:
 
 def skeleton_option() -> Optional[str]:
     return typer.Option(None, "--skeleton", help="joint order of the 2D poses: body25 | body25b | coco17 | halpe26 | "
-                        "coco_wholebody | coco18 (default: the file's, else recognised from the joints' layout)")
+                        "coco_wholebody | coco18, or the joint names in file order, comma-separated (default: the file's, else "
+                        "recognised from the joints' layout)")
 
 
 def strict_option() -> bool:

@@ -42,7 +42,7 @@ import numpy as np
 
 from ..errors import GymtrackWarning, InputError
 from ..poses import Poses2D
-from ..skeletons import COCO17, FILE_JOINTS, SKELETONS, Skeleton, get_skeleton
+from ..skeletons import COCO17, FILE_JOINTS, SKELETONS, Skeleton, custom_skeleton, get_skeleton
 from .camera_match import match_cameras, strip_suffix
 from .keypoints_parse import PoseRows, frame_from_name, image_frame, load_json, read_coco, read_native
 from .keypoints_tools import is_mmpose, read_mmpose, read_openpose_folder
@@ -82,6 +82,16 @@ class KeypointsReport:
         return out
 
 
+def skeleton_arg(text: str) -> Skeleton:
+    """``--skeleton``: a known name (``body25b``, ``HALPE_26``...) or the joint names in file order,
+    comma-separated (``nose,neck,left_wrist,...``): any named joint list."""
+    if "," in text:
+        names = [n.strip() for n in text.split(",")]
+        sk = custom_skeleton(names)
+        return next((s for s in SKELETONS.values() if s.joints == sk.joints), sk)
+    return get_skeleton(text)
+
+
 def _read_rows(path: Path) -> PoseRows:
     if path.is_dir():
         return read_openpose_folder(path)
@@ -106,7 +116,7 @@ def _ask(J: int, fits: list[LayoutFit], src: PoseRows) -> InputError:
 
 def _resolve(parts: list[PoseRows], skeleton: Skeleton | str | None, report: KeypointsReport) -> Skeleton:
     """The skeleton of all cameras' rows (module docstring); checks every camera against it."""
-    given = get_skeleton(skeleton) if isinstance(skeleton, str) else skeleton
+    given = skeleton_arg(skeleton) if isinstance(skeleton, str) else skeleton
     withdata = [p for p in parts if p.frame]
     declared = [p for p in parts if p.skeleton is not None]
     for p in declared[1:]:
