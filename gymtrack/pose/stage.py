@@ -168,7 +168,7 @@ def _rig_order(poses: Poses2D, rig: Rig) -> Poses2D:
 
 def lift_poses(result: TrackResult, rig: Rig, scene: Scene, poses: Poses2D, all_tracks: bool = False,
                method: str = "robust", plane: bool = True, options: LiftOptions | None = None,
-               min_iou: float = 0.3) -> PoseStageResult:
+               min_iou: float = 0.3, joints: bool = True) -> PoseStageResult:
     """The pose stage on a tracker result: assign, group per sequence, lift.
 
     result: the tracker's output (``tracks``, ``boxes``, ``target``, ``target_boxes``), e.g. from
@@ -177,7 +177,8 @@ def lift_poses(result: TrackResult, rig: Rig, scene: Scene, poses: Poses2D, all_
     all_tracks: lift every 3D track (rows per (frame, track)); default: the target only.
     method: ``dlt`` (paper Eq. 3 per joint) | ``robust``; plane: with ``robust``, pass the centre
         and the nearest plane's normal (False: the ablation "robust without plane anchoring").
-    min_iou: the assignment's gate.
+    min_iou: the assignment's gate; joints: also assign by the joints' epipolar agreement where
+        boxes overlap (:mod:`gymtrack.pose.assign_joints`).
     """
     if method not in LIFT_METHODS:
         raise InputError(f"unknown lifting method {method!r}; choose one of {', '.join(LIFT_METHODS)}", field="--lift")
@@ -194,7 +195,7 @@ def lift_poses(result: TrackResult, rig: Rig, scene: Scene, poses: Poses2D, all_
         poses = replace(poses, keypoints=np.concatenate([poses.keypoints[..., :2],
                                                          np.minimum(poses.keypoints[..., 2:], 1.0)], axis=-1))
     boxes = _rig_boxes(Detections.concat([result.boxes, result.target_boxes]), rig)
-    a = assign_poses(poses, boxes, min_iou=min_iou, frame_range=_frame_range(result))
+    a = assign_poses(poses, boxes, min_iou=min_iou, frame_range=_frame_range(result), rig=rig if joints else None)
     known = np.unique(np.concatenate([result.tracks.track_id, result.target.track_id, boxes.track_id]))
     unknown = (a.status == GIVEN) & ~np.isin(a.poses.track_id, known)
     if unknown.any():
