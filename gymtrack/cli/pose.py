@@ -105,7 +105,7 @@ def pose(
     from gymtrack.formats.poses3d import write_poses_3d
     from gymtrack.formats.atomic import atomic_update
     from gymtrack.pose.sources import routine_poses
-    from gymtrack.pose.stage import LIFT_METHODS, lift_poses, read_track_result
+    from gymtrack.pose.stage import LIFT_METHODS, check_liftable, lift_poses, read_track_result
 
     if lift not in LIFT_METHODS:
         raise InputError(f"unknown lifting method {lift!r}; choose one of {', '.join(LIFT_METHODS)}", field="--lift")
@@ -126,6 +126,7 @@ def pose(
         if report.sources and r.keypoints_report is None:  # not printed yet by read_routine
             for line in report.lines():
                 console.print(f"2D poses: {line}", highlight=False, soft_wrap=True)
+    check_liftable(result, poses, all_tracks)
     with console.status(f"lifting ({lift})"):
         res = lift_poses(result, r.rig, r.scene, poses, all_tracks=all_tracks, method=lift)
     if not len(res.poses3d):

@@ -40,7 +40,7 @@ from .assign import GIVEN, Assignment, assign_poses
 from .lift import LiftOptions, lift_track
 from .skeleton_check import ASYMMETRY_MAX, BONE_CV_MAX, skeleton_consistency
 
-__all__ = ["NoTargetError", "PoseStageResult", "Sequence3D", "nearest_plane_normal", "target_sequence", "track_sequences",
+__all__ = ["NoTargetError", "check_liftable", "PoseStageResult", "Sequence3D", "nearest_plane_normal", "target_sequence", "track_sequences",
            "dense_keypoints", "lift_poses", "pose_model_boxes", "read_track_result"]
 
 LIFT_METHODS: tuple[str, ...] = ("dlt", "robust")
@@ -166,6 +166,17 @@ def _rig_order(poses: Poses2D, rig: Rig) -> Poses2D:
     return Poses2D(poses.frame, remap[poses.camera], poses.track_id, poses.keypoints, poses.bbox, poses.skeleton, rig.names)
 
 
+def check_liftable(result: TrackResult, poses: Poses2D, all_tracks: bool) -> None:
+    """Raise a clear InputError when lifting cannot give anything: no 2D poses at all, or no target
+    frames when only the target is asked for (:class:`NoTargetError`). :func:`lift_poses` itself
+    returns an empty result then (a benchmark row, a demo table); commands call this first."""
+    if not len(poses):
+        raise InputError("no 2D poses to lift: the keypoint files hold no poses (check that the pose model ran and "
+                         "wrote its output where --keypoints points)", field="keypoints")
+    if not all_tracks and not len(result.target.frame):
+        raise NoTargetError()
+
+
 def lift_poses(result: TrackResult, rig: Rig, scene: Scene, poses: Poses2D, all_tracks: bool = False,
                method: str = "robust", plane: bool = True, options: LiftOptions | None = None,
                min_iou: float = 0.3, joints: bool = True) -> PoseStageResult:
@@ -182,11 +193,6 @@ def lift_poses(result: TrackResult, rig: Rig, scene: Scene, poses: Poses2D, all_
     """
     if method not in LIFT_METHODS:
         raise InputError(f"unknown lifting method {method!r}; choose one of {', '.join(LIFT_METHODS)}", field="--lift")
-    if not len(poses):
-        raise InputError("no 2D poses to lift: the keypoint files hold no poses (check that the pose model ran and "
-                         "wrote its output where --keypoints points)", field="keypoints")
-    if not all_tracks and not len(result.target.frame):
-        raise NoTargetError()
     t0 = time.perf_counter()
     options = options or LiftOptions()
     poses = _rig_order(poses, rig)
