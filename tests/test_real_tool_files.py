@@ -219,3 +219,21 @@ def test_floor_below_zero_allowed_and_reported(tmp_path):
     r = CliRunner().invoke(app, ["info", str(routine)])
     assert r.exit_code == 0, r.output
     assert f"floor: standing people's box bottoms lie at z = {flat.median:+.2f} m" in r.output
+
+
+def test_info_checks_the_poses_beside_detections(tmp_path):
+    from typer.testing import CliRunner
+
+    from gymtrack.cli import app
+
+    example = Path(__file__).resolve().parents[1] / "examples" / "balance_beam"
+    kp = tmp_path / "kp"
+    for c in ("cam0", "cam1", "cam2", "cam3"):
+        _openpose_folder(kp / f"{c}_json", lambda f: f"{c}.{f:04d}.json", range(1, 26), sk=COCO17, people=1)
+    r = CliRunner().invoke(app, ["info", str(example), "--keypoints", str(kp)])
+    assert r.exit_code == 0, r.output
+    assert "2D poses: camera cam2 <- " in r.output and "cam2_json (by name)" in r.output
+    assert "skeleton coco17 (from the joint count, layout checked)" in r.output
+    (kp / "cam3_json").rename(kp / "cam9_json")
+    r = CliRunner().invoke(app, ["info", str(example), "--keypoints", str(kp)])
+    assert r.exit_code != 0 and "cam9_json" in str(r.exception)

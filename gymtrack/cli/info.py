@@ -212,5 +212,12 @@ def info(
     if routine is None:
         raise InputError("give a routine folder (gymtrack info <routine>), or --system", field="ROUTINE")
     r, checks = read_routine(routine, calibration_format, units, silent_seconds, calibration, keypoints, skeleton)
+    if r.keypoints_report is None and r.keypoints_path is not None:  # poses beside detections: check them too
+        from gymtrack.formats.keypoints import KeypointsReport, read_keypoints
+
+        report = KeypointsReport()
+        read_keypoints(r.keypoints_path, r.rig.names, skeleton=skeleton, report=report)
+        for line in report.lines():
+            console.print(f"2D poses: {line}", highlight=False, soft_wrap=True)
     print_routine_info(r, console, checks)
     REPORTER.check_strict(strict)
