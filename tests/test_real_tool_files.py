@@ -234,6 +234,9 @@ def test_info_checks_the_poses_beside_detections(tmp_path):
     assert r.exit_code == 0, r.output
     assert "2D poses: camera cam2 <- " in r.output and "cam2_json (by name)" in r.output
     assert "skeleton coco17 (from the joint count, layout checked)" in r.output
-    (kp / "cam3_json").rename(kp / "cam9_json")
+    (kp / "cam3_json").rename(kp / "cam9_json")  # one left on each side: sorted order, said so
     r = CliRunner().invoke(app, ["info", str(example), "--keypoints", str(kp)])
-    assert r.exit_code != 0 and "cam9_json" in str(r.exception)
+    assert r.exit_code == 0 and "cam9_json (by sorted order)" in r.output
+    (kp / "cam8_json").mkdir()  # two folders for one camera left: refused, naming them
+    r = CliRunner().invoke(app, ["info", str(example), "--keypoints", str(kp)])
+    assert r.exit_code != 0 and "cam8_json, cam9_json cannot be matched to the cameras cam3" in str(r.exception)
