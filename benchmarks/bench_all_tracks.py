@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import time
+import warnings
 
 import numpy as np
 
@@ -45,7 +46,9 @@ def pcp(out, sim) -> dict:
     truth = sim.keypoints[:, fi, :, :3].transpose(1, 0, 2, 3)  # (M, P, 17, 3)
     idx = p.skeleton.index(COCO17.joints)
     est = p.xyz[:, idx]  # (M, 17, 3)
-    d = np.nanmean(np.linalg.norm(truth - est[:, None], axis=-1), axis=-1)  # (M, P)
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a person absent in that frame: all NaN
+        d = np.nanmean(np.linalg.norm(truth - est[:, None], axis=-1), axis=-1)  # (M, P)
     d = np.where(np.isfinite(d), d, np.inf)
     who = np.argmin(d, axis=1)
     ok = d[np.arange(len(p)), who] < 0.5
