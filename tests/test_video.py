@@ -7,7 +7,7 @@ import pytest
 
 pytest.importorskip("av")
 
-from gymtrack.errors import InputError  # noqa: E402
+from gymtrack.errors import GymtrackWarning, InputError  # noqa: E402
 from gymtrack.formats.scene import scene_from_dict  # noqa: E402
 from gymtrack.formats.video import VideoReader, find_videos, open_videos, write_video  # noqa: E402
 
@@ -109,8 +109,18 @@ def test_scene_video_keys():
 def test_open_videos_scales_a_smaller_video_of_the_same_aspect(tmp_path):
     (tmp_path / "videos").mkdir()
     write_video(tmp_path / "videos" / "a.mkv", numbered(3, h=48, w=64), 30)
-    with open_videos(tmp_path, ["a"], sizes=[(256, 192)]) as vs:
-        assert vs.pixel_scale.tolist() == [4.0]
+    with pytest.warns(GymtrackWarning, match=r"camera 'a': the video is 64x48 but the calibration says 256x192; "
+                                             r"its pixels are scaled by 4.0000 .*move by up to 192 px"):
+        with open_videos(tmp_path, ["a"], sizes=[(256, 192)]) as vs:
+            assert vs.pixel_scale.tolist() == [4.0]
+    # Pose2Sim's demo: calibrated 1088 wide (a codec's multiple of 16), the video 1080: never silent
+    write_video(tmp_path / "videos" / "b.mkv", numbered(3, h=48, w=136), 30)
+    with pytest.warns(GymtrackWarning, match=r"'b': the video is 136x48 but the calibration says 137x48.*1.0074 \(x\) "
+                                             r"and 1.0000"):
+        open_videos(tmp_path, ["a", "b"], sizes=[(64, 48), (137, 48)]).close()
+    with pytest.raises(InputError, match=r"136x48 but the calibration says 137x48.*\(--strict\)"):
+        open_videos(tmp_path, ["a", "b"], sizes=[(64, 48), (137, 48)], strict=True)
+    (tmp_path / "videos" / "b.mkv").unlink()
     with open_videos(tmp_path, ["a"]) as vs:
         assert vs.pixel_scale.tolist() == [1.0]
     with pytest.raises(InputError, match="64x48 but camera 'a' is calibrated at 256x144 .another aspect"):

@@ -34,6 +34,10 @@ def batch(
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="address of a running Dask scheduler, e.g. tcp://host:8786"),
     force: bool = typer.Option(False, "--force", help="redo routines whose outputs are already complete (and replace routine folders under OUT that are not gymtrack outputs)"),
     mot: bool = typer.Option(True, "--mot/--no-mot", help="eval: also score all people (MOTA, IDF1)"),
+    calibration: Optional[Path] = typer.Option(None, "--calibration", help="one calibration file for every routine "
+                                               "(default: each routine's own, or its Pose2Sim project's)"),
+    keypoints: Optional[str] = typer.Option(None, "--keypoints", "-k", help="the 2D poses' folder inside each routine "
+                                            "(default: keypoints/, else Pose2Sim's pose/)"),
 ) -> None:
     """Run many routines on a Dask cluster (local processes by default); resumable, failures isolated."""
     from gymtrack.batch import find_routines, parse_steps, run_batch
@@ -56,7 +60,9 @@ def batch(
 
         try:
             res = run_batch(source, out, step_list, mode, workers or None, scheduler, force, mot, on_row=on_row,
-                            log=lambda s: bar.console.print(s, highlight=False))
+                            log=lambda s: bar.console.print(s, highlight=False),
+                            routine_options={"calibration": calibration and Path(calibration).absolute(),
+                                             "keypoints": keypoints})
         except KeyboardInterrupt:
             bar.stop()
             console.print(f"[yellow]interrupted[/]: finished routines kept; {out / 'batch.csv'} lists them; "

@@ -27,7 +27,8 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from gymtrack.cli import app
-from gymtrack.cli.options import (calibration_format_option, overwrite_option, read_routine, silent_seconds_option,
+from gymtrack.cli.options import (calibration_format_option, calibration_option, keypoints_option, skeleton_option,
+                                  overwrite_option, read_routine, silent_seconds_option,
                                   strict_option, units_option)
 from gymtrack.cli.report import REPORTER, interrupts
 from gymtrack.modes import DEFAULT_MODE, INGREDIENTS
@@ -83,6 +84,9 @@ def track(
     mode: str = typer.Option(DEFAULT_MODE, "--mode", "-m", help="cascade (the paper) | cascade+ (beyond it) | triangulation | plane"),
     calibration_format: Optional[str] = calibration_format_option(),
     units: Optional[str] = units_option(),
+    calibration: Optional[Path] = calibration_option(),
+    keypoints: Optional[Path] = keypoints_option(),
+    skeleton: Optional[str] = skeleton_option(),
     overwrite: bool = overwrite_option(),
     strict: bool = strict_option(),
     silent_seconds: float = silent_seconds_option(),
@@ -104,11 +108,12 @@ def track(
         method = recipe(mode, without or (), adding or ())
     except ValueError as e:
         raise InputError(str(e), field="--without/--adding" if "ingredient" in str(e) else "--mode") from None
-    inputs = {"routine": Path(routine).absolute(), "mode": mode, "calibration_format": calibration_format, "units": units}
+    inputs = {"routine": Path(routine).absolute(), "mode": mode, "calibration_format": calibration_format, "units": units,
+              "calibration": calibration and Path(calibration).absolute(), "keypoints": keypoints and Path(keypoints).absolute()}
     if without or adding:
         inputs |= {"without": list(without or ()), "adding": list(adding or ())}
     with interrupts(), atomic_output(out, "track", inputs, overwrite=overwrite, protect=[routine]) as staging:
-        r, checks = read_routine(routine, calibration_format, units, silent_seconds)
+        r, checks = read_routine(routine, calibration_format, units, silent_seconds, calibration, keypoints, skeleton)
         notice = compile_notice()
         if notice:
             console.print(notice, highlight=False)
@@ -120,6 +125,11 @@ def track(
                 bar.update(task, completed=done, total=total)
 
             result = track_detections(r.rig, r.scene, r.detections, mode=method, progress=progress)
+        if r.pose_boxes is not None:  # the summary says where the boxes came from
+            b = r.pose_boxes
+            result.summary["boxes_from_poses"] = {"poses": b.poses, "boxes": b.boxes, "too_few_joints": b.too_few_joints,
+                                                  "min_score": b.min_score, "pad": b.pad,
+                                                  "keypoints": str(r.keypoints_path)}
         for msg in empty_result_warnings(result.summary):
             REPORTER.warn(msg)
         REPORTER.check_strict(strict)

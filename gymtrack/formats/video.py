@@ -14,6 +14,7 @@ BGR, as OpenCV has them. PyAV is the optional ``video`` extra and is imported la
 
 from __future__ import annotations
 
+import warnings
 from concurrent.futures import ThreadPoolExecutor
 from fractions import Fraction
 from pathlib import Path
@@ -21,7 +22,7 @@ from typing import Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import GymtrackWarning, InputError
 
 __all__ = ["VIDEO_EXTENSIONS", "VideoReader", "VideoSet", "find_videos", "open_videos", "write_video", "import_av"]
 
@@ -248,15 +249,40 @@ class VideoSet:
         self.close()
 
 
+def size_scale(camera: str, calibrated: tuple[int, int], video: tuple[int, int], path: Path,
+               strict: bool = False) -> float:
+    """Calibration pixels per video pixel for a video of ``video`` (w, h) size of a camera calibrated
+    at ``calibrated`` (W, H). Another size is never silent: with the same aspect (within 1 %) a
+    warning names the camera, both sizes, the scale and how far it moves the far corner (an
+    InputError under ``strict``); another aspect is an InputError."""
+    (W, H), (w, h) = calibrated, video
+    if (W, H) == (w, h):
+        return 1.0
+    scale = W / w
+    if abs(H / h - scale) > 0.01 * scale:
+        raise InputError(f"the video is {w}x{h} but camera {camera!r} is calibrated at {W}x{H} "
+                         "(another aspect ratio): use the original video or recalibrate", source=path)
+    moved = abs(scale - 1) * max(w, h)
+    msg = (f"camera {camera!r}: the video is {w}x{h} but the calibration says {W}x{H}; its pixels are scaled by "
+           f"{scale:.4f} (x) and {H / h:.4f} would be needed for y, so points near the far edge move by up to "
+           f"{moved:.0f} px. If the video was cropped or padded (a codec's multiple of 16) rather than resized, "
+           "fix the calibration's size instead")
+    if strict:
+        raise InputError(msg + " (--strict)", source=path)
+    warnings.warn(msg, GymtrackWarning, stacklevel=3)
+    return scale
+
+
 def open_videos(routine_folder: str | Path, camera_names: Sequence[str], first_frame: int = 1,
                 video_offsets: Mapping[str, int] | None = None, required: bool = True,
-                sizes: Sequence[tuple[int, int]] | None = None) -> VideoSet:
+                sizes: Sequence[tuple[int, int]] | None = None, strict: bool = False) -> VideoSet:
     """A :class:`VideoSet` of a routine's ``videos/`` (``first_frame``/``video_offsets`` as in scene.yaml).
 
     ``required``: raise InputError naming the cameras without a video; otherwise they read None.
     An offset for a camera the rig lacks is an error (a typo would silently leave a view unsynchronised).
     ``sizes``: the calibrated (width, height) of every camera; a video of another size with the
-    same aspect (within 1 %) gets its :attr:`VideoSet.pixel_scale`, another aspect is an error.
+    same aspect (within 1 %) gets its :attr:`VideoSet.pixel_scale` and a warning naming the camera,
+    both sizes and the scale (an error under ``strict``: :func:`size_scale`); another aspect is an error.
     """
     offsets = dict(video_offsets or {})
     for cam in offsets:
@@ -273,14 +299,13 @@ def open_videos(routine_folder: str | Path, camera_names: Sequence[str], first_f
     for i, r in enumerate(readers):
         if r is None or sizes is None:
             continue
-        (W, H), (w, h) = sizes[i], r.size
-        scale[i] = W / w
-        if abs(H / h - scale[i]) > 0.01 * scale[i]:
+        try:
+            scale[i] = size_scale(camera_names[i], sizes[i], r.size, r.path, strict)
+        except InputError:
             for x in readers:
                 if x is not None:
                     x.close()
-            raise InputError(f"the video is {w}x{h} but camera {camera_names[i]!r} is calibrated at {W}x{H} "
-                             "(another aspect ratio): use the original video or recalibrate", source=r.path)
+            raise
     return VideoSet(readers, camera_names, scale)
 
 

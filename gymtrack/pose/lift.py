@@ -174,11 +174,15 @@ def _check(rig, keypoints, skeleton, method, centre, plane_normal, options):
         raise InputError(f"keypoints must be (T, C={len(rig)}, J={J}, 3) [x, y, score] for {len(rig)} cameras and "
                          f"the {skeleton.name} skeleton's {J} joints, got shape {kp.shape}", field="keypoints")
     score = kp[..., 2]
-    bad = np.isfinite(score) & ((score < 0) | (score > 1))
+    bad = np.isfinite(score) & (score < 0)
     if bad.any():
         t, c, j = np.argwhere(bad)[0]
-        raise InputError(f"scores must be in [0, 1]; {int(bad.sum())} are not, first at frame index {t}, camera "
+        raise InputError(f"scores must be >= 0; {int(bad.sum())} are not, first at frame index {t}, camera "
                          f"{rig[int(c)].name}, joint {skeleton.joints[j]}: {score[t, c, j]}", field="keypoints")
+    # real tools write a little above 1 (OpenPose's heatmap peaks): a weight, so clip (counted by the caller)
+    if np.nanmax(score, initial=0.0) > 1:
+        kp = kp.copy()
+        kp[..., 2] = np.minimum(score, 1.0)
     if (centre is None) != (plane_normal is None):
         raise InputError("plane anchoring needs both centre and plane_normal (or neither)",
                          field="centre" if centre is None else "plane_normal")
