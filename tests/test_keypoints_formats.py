@@ -68,11 +68,11 @@ def test_native_details(tmp_path):
 
 def test_coco_results_infer_or_take_the_skeleton(tmp_path):
     rng = np.random.default_rng(0)
-    for J, sk, given in ((17, COCO17, None), (25, BODY25, "body25"), (26, HALPE26, None)):
+    for J, sk, named in ((17, COCO17, None), (25, BODY25, "body25"), (26, HALPE26, None)):
         flat = rng.uniform(0, 100, 3 * J).round(2).tolist()
         (tmp_path / "c.json").write_text(json.dumps([{"image_id": 7, "category_id": 1, "keypoints": flat,
                                                       "score": 0.8, "bbox": [1, 2, 3, 4]}] * 2))
-        p = read_keypoints_file(tmp_path / "c.json", 0, ("c",), skeleton=given)
+        p = read_keypoints_file(tmp_path / "c.json", 0, ("c",), skeleton=named)
         assert p.skeleton is sk and len(p) == 2 and np.allclose(p.keypoints[1].ravel(), flat)
         assert p.bbox[0].tolist() == [1, 2, 3, 4] and p.frame.tolist() == [7, 7]
     # 25 joints are BODY_25 or BODY_25B: two poses of random joints cannot tell which

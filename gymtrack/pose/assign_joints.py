@@ -53,7 +53,6 @@ def joint_costs(poses: Poses2D, rig: Rig, pi: np.ndarray, ti: np.ndarray, track:
     have = np.flatnonzero(track >= 0)
     if not M or not have.size:
         return e
-    n_cam = len(rig)
     big = np.int64(1) << 32
     key_q = poses.frame[have] * big + track[have]
     key_c = poses.frame[pi] * big + ti
