@@ -15,7 +15,8 @@ one folder per trial (optionally inside a participant folder), each with ``video
 
 gymtrack reads a trial as a routine (``gymtrack track Session/Participant/Trial_1``): the
 calibration is searched in the trial, then its parent, then the session; the poses are its
-``pose/`` folder (``keypoints/`` first where both exist). A ``scene.yaml`` in the trial gives the
+``pose/`` folder (``keypoints/`` first where both exist). Only a trial (a folder with ``pose/`` or
+``Config.toml``) looks above itself for the calibration. A ``scene.yaml`` in the trial gives the
 domain knowledge, as for any routine.
 """
 
@@ -38,10 +39,14 @@ def _calib_files(folder: Path) -> list[Path]:
 def find_project_calibration(routine: str | Path, levels: int = 2) -> Path | None:
     """The ``Calib*.toml`` of a Pose2Sim trial (module docstring), None when there is none.
 
-    Looks in the routine folder and, up to ``levels`` folders above it, in each folder and its
-    sub-folders whose name holds "calib". Several in the nearest folder that has any is an error
-    naming them (give ``--calibration FILE``)."""
+    Looks in the routine folder and, when the routine is a Pose2Sim trial (it has ``pose/`` or a
+    ``Config.toml``), up to ``levels`` folders above it, in each folder and its sub-folders whose name
+    holds "calib". Several in the nearest folder that has any is an error naming them (give
+    ``--calibration FILE``). A plain routine never looks above itself: the folders beside it are
+    other routines', not its project's."""
     folder = Path(routine).resolve()
+    if not ((folder / "pose").is_dir() or (folder / "Config.toml").is_file()):
+        levels = 0
     for _ in range(levels + 1):
         found = _calib_files(folder)
         for sub in sorted(p for p in folder.iterdir() if p.is_dir() and "calib" in p.name.lower()):
