@@ -91,3 +91,36 @@ def test_angle_errors_by_hand():
     s = summarise_angles([angle_parts(measured, truth)])
     assert s["left_knee"] == {"median": 7.0, "mean": 7.0, "n": 2}  # frames 2 and 3: 10 and 4
     assert s["com"]["median"] == pytest.approx(0.025) and s["com"]["n"] == 2  # 0.05 and 0
+
+
+def test_eval_scores_an_analysis_folder_and_says_what_is_absent(tmp_path):
+    """``gymtrack eval``'s judging part on files: the example's gt/elements.json against a measured
+    one with the dismount's salto counted a quarter short and the mount missed."""
+    import json
+    import shutil
+    from pathlib import Path
+
+    from gymtrack.eval.score import judging_scores
+    from gymtrack.formats.elements import read_elements, write_elements
+
+    example = Path(__file__).resolve().parents[1] / "examples" / "balance_beam"
+    routine, out = tmp_path / "routine", tmp_path / "out"
+    (routine / "gt").mkdir(parents=True)
+    shutil.copy(example / "gt" / "elements.json", routine / "gt" / "elements.json")
+    notes: list[str] = []
+    assert judging_scores(routine, out, None, 1, notes) is None
+    assert "no " + str(out / "analysis" / "elements.json") in notes[0]
+    truth = read_elements(routine / "gt" / "elements.json")
+    measured = [dict(e) for e in truth["elements"] if e["kind"] != "flight" or e["saltos"] != 0]
+    for e in measured:
+        if e["kind"] == "flight":
+            e["saltos"] -= 0.25
+    write_elements(out / "analysis" / "elements.json", {**truth, "source": "analysis", "elements": measured})
+    notes = []
+    s = judging_scores(routine, out, None, 1, notes)
+    k = s["elements"]["kinds"]
+    assert (k["flight"]["gt"], k["flight"]["matched"], k["landing"]["matched"]) == (2, 1, 1)
+    assert s["elements"]["flight"]["saltos_exact"]["share"] == 0.0 and s["elements"]["flight"]["shape"]["share"] == 1.0
+    assert s["angles"] is None and any("angle and apex errors not scored" in n for n in notes)
+    saved = json.loads((out / "analysis" / "scores.json").read_text())
+    assert saved["elements"]["kinds"]["flight"]["recall"] == 0.5
