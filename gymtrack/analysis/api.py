@@ -135,6 +135,17 @@ def _missing_joints(J, normal, geo) -> dict[str, str]:
     return miss
 
 
+def _quiet(fn):
+    """numpy's all-NaN warnings are expected here (a measure missing on every sample): NaN is the answer."""
+    def wrapped(*a, **k):
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", category=RuntimeWarning)
+            return fn(*a, **k)
+    wrapped.__doc__, wrapped.__name__, wrapped.__wrapped__ = fn.__doc__, fn.__name__, fn
+    return wrapped
+
+
+@_quiet
 def analyse(poses3d: Poses3D, scene: Scene, track_id: int | None = None, *, fps: float | None = None,
             samples: int = SAMPLES, seed: int = 0, cutoff_hz: float | None = CUTOFF_HZ, body: str = "mean",
             joint_sigma: np.ndarray | None = None) -> Analysis:
