@@ -85,6 +85,29 @@ def print_pose_claims(rows: list[dict]) -> list:
     return found
 
 
+def print_judging(rows: list[dict]) -> list:
+    """Judging measurements: pooled per n_cam and method, the definitions check, the targets; returns the claims."""
+    from gymtrack.eval.judging import HEADER, judging_line, judging_claims, judging_tables
+
+    t = judging_tables(rows)
+    if not t["overall"] and not t["truth"]:
+        return []
+    tab = Table(title="Judging measurements (pooled over apparatus)", title_justify="left")
+    for col in ["n_cam", "skeleton"] + HEADER:
+        tab.add_column(col)
+    for (n, m), s in sorted(t["overall"].items()):
+        tab.add_row(str(n), m, *judging_line(s))
+    if "all" in t["truth"]:
+        tab.add_row("-", "ground truth", *judging_line(t["truth"]["all"]))
+    console.print(tab)
+    for e in t["errors"]:
+        console.print(f"[red]analysis failed:[/] {e}", highlight=False)
+    found = judging_claims(rows)
+    console.print(claims_table("Judging targets (cascade+, pooled over apparatus)", found,
+                               lambda v: "-" if not np.isfinite(v) else f"{v:.3g}"))
+    return found
+
+
 @app.command()
 def benchmark(
     out: Path = typer.Option(..., "--out", "-o", help="output folder: report.md, CSV, JSON, plots"),
@@ -177,7 +200,7 @@ def benchmark(
                                    lambda v: fmt(v, "ratio") if abs(v) < 100 or not np.isfinite(v) else fmt(v, "fps")))
         found = found + plus
     if not no_pose:
-        found = found + print_pose_claims(run.rows)
+        found = found + print_pose_claims(run.rows) + print_judging(run.rows)
     failed = [r for r in run.rows if r.get("error")]
     if failed:
         console.print(f"[red]{len(failed)} runs failed[/] (listed in the report), e.g. {failed[0]['routine']} / "
