@@ -2,9 +2,11 @@
 
 * ``gymtrack view <routine> <out> [-o view.rrd] [--spawn]`` writes a Rerun recording: cameras,
   performance space and apparatus plane, every 3D track, the target and its skeleton, per view the
-  detections, boxes, b_buf and keypoints, ground truth (:mod:`gymtrack.eval.viewer`).
-* ``gymtrack overlay <routine> <out> [--camera cam0] -o video.mp4`` draws boxes with ids, b_buf
-  and skeletons on the videos, a grid of all views by default (:mod:`gymtrack.eval.overlay`).
+  detections, boxes, b_buf and keypoints, ground truth, and the analysis stage's elements on the
+  frame timeline where it ran (:mod:`gymtrack.eval.viewer`).
+* ``gymtrack overlay <routine> <out> [--camera cam0] -o video.mp4`` draws boxes with ids, b_buf,
+  the 2D skeletons and the projected 3D one, and captions of the elements (flights' saltos and
+  twists, the hold timer) on the videos, a grid of all views by default (:mod:`gymtrack.eval.overlay`).
 
 Paper: Section III (every stage's output, shown) and III-D (b_buf).
 """
@@ -33,7 +35,7 @@ def view(
     spawn: bool = typer.Option(False, "--spawn", help="open the Rerun viewer on the recording"),
     no_videos: bool = typer.Option(False, "--no-videos", help="leave the videos out of the recording (smaller file)"),
 ) -> None:
-    """Write a Rerun recording (.rrd) of a routine and the tracker's outputs (needs the 'view' extra)."""
+    """Write a Rerun recording (.rrd) of a routine, the tracker's outputs and the elements (needs the 'view' extra)."""
     from gymtrack.eval.viewer import write_recording
 
     t0 = time.perf_counter()
@@ -41,7 +43,8 @@ def view(
     s = write_recording(routine, out, path, videos=not no_videos, progress=console.print)
     console.print(f"3D tracks {s['tracks_3d']} rows, target {s['target_3d']}, 3D poses {s['poses_3d']}; boxes {s['boxes']}, "
                   f"b_buf {s['b_buf']}, detections {s['detections']}, 2D poses {s['keypoints']}; ground truth: "
-                  f"{'yes' if s['ground_truth'] else 'no'}; videos: {', '.join(s['videos']) or 'none'}")
+                  f"{'yes' if s['ground_truth'] else 'no'}; videos: {', '.join(s['videos']) or 'none'}; "
+                  f"elements: {s['elements'] or 'none (no analysis/elements.json)'}")
     console.print(f"wrote [bold]{path}[/] ({path.stat().st_size / 1e6:.1f} MB) in {time.perf_counter() - t0:.1f} s")
     if spawn:
         subprocess.Popen([sys.executable, "-m", "rerun", str(path)])
@@ -57,7 +60,7 @@ def overlay(
     start: Optional[int] = typer.Option(None, "--start", help="first frame (default: the first with a box)"),
     stop: Optional[int] = typer.Option(None, "--stop", help="last frame, inclusive (default: the last with a box)"),
 ) -> None:
-    """Draw boxes with ids, b_buf and the skeletons on the videos (needs the 'video' extra)."""
+    """Draw boxes with ids, b_buf, the skeletons and the elements' captions on the videos (needs the 'video' extra)."""
     import numpy as np
 
     from gymtrack.eval.overlay import load_overlay_inputs, write_overlay
@@ -71,5 +74,6 @@ def overlay(
         frames = np.arange(lo, hi + 1)
     s = write_overlay(routine, out, video, camera=camera, width=width, frames=frames)
     size = f"{s['size'][0]}x{s['size'][1]}" if s["size"] else "-"
-    console.print(f"{s['frames']} frames {size}; video: {', '.join(s['videos']) or 'none'}; canvas: {', '.join(s['canvas']) or 'none'}")
+    console.print(f"{s['frames']} frames {size}; video: {', '.join(s['videos']) or 'none'}; canvas: {', '.join(s['canvas']) or 'none'}; "
+                  f"3D poses {s['poses_3d']}; elements: {s['elements'] or 'none (no analysis/elements.json)'}")
     console.print(f"wrote [bold]{video}[/] ({Path(video).stat().st_size / 1e6:.1f} MB) in {time.perf_counter() - t0:.1f} s")

@@ -3,7 +3,11 @@
 Paper: Section III (the tracker's per-view output): the boxes of every 3D track in every view
 (``tracks_2d``, labelled with the 3D track id), the target's expanded box ``b_buf`` (Sec. III-D,
 ``target_2d``) and the 2D skeletons the pose stage used (``keypoints/``), over the raw
-detections. Where a camera has no video the view is drawn on a neutral canvas.
+detections. Where a camera has no video the view is drawn on a neutral canvas. Where ``gymtrack
+pose`` ran, the 3D skeleton of ``poses_3d.csv`` projected into each view (red, over the 2D poses:
+where they part, the 3D pose disagrees with that view); where ``gymtrack analyse`` ran, captions of
+the elements going on (a flight's saltos, twists and shape, the hold timer, a landing's steps) at
+the bottom left of each view (:mod:`gymtrack.eval.element_marks`).
 
 Shapes: images (h, w, 3) uint8 BGR; boxes (N, 4) centre form in raw camera pixels, drawn at a
 view's scale ``s`` (tile width / camera width).
@@ -24,12 +28,15 @@ from ..detections import Detections
 from ..errors import InputError
 from ..formats.outputs import OutputFolder, read_outputs
 from ..formats.routine import Routine, load_routine
-from ..poses import Poses2D
+from ..poses import Poses2D, Poses3D
+from .element_marks import ElementMarks, kind_bgr, read_analysis_elements
 
 CANVAS = (64, 64, 64)  # a view without video
 DETECTION = (170, 170, 170)
 B_BUF = (0, 230, 255)  # yellow: the target's expanded box
 BONE = (255, 255, 255)
+SKELETON_3D = (30, 30, 230)  # red: the 3D pose projected into the view
+CAPTION_FONT = cv2.FONT_HERSHEY_SIMPLEX
 _SHIFT = 2
 
 
@@ -65,6 +72,8 @@ class OverlayInputs:
     outputs: OutputFolder
     poses: Poses2D | None
     videos: dict[str, Path]
+    poses3d: Poses3D | None = None
+    marks: ElementMarks | None = None
 
     @property
     def frames(self) -> np.ndarray:
@@ -74,15 +83,21 @@ class OverlayInputs:
 
 
 def load_overlay_inputs(routine: str | Path, out: str | Path) -> OverlayInputs:
-    """Read ``routine`` (with its ``videos/``) and the output folder ``out`` (``keypoints/`` optional)."""
+    """Read ``routine`` (with its ``videos/``) and the output folder ``out`` (``keypoints/``,
+    ``poses_3d.csv`` and ``analysis/elements.json`` optional)."""
     from ..formats.keypoints import read_keypoints
+    from ..formats.poses3d import read_poses_3d
     from ..formats.video import find_videos
 
     r = load_routine(routine)
     outputs = read_outputs(out, r.camera_names)
     kp = Path(out) / "keypoints"
     poses = read_keypoints(kp, r.camera_names) if kp.is_dir() else None
-    return OverlayInputs(r, outputs, poses, find_videos(r.path, r.camera_names))
+    p3 = Path(out) / "poses_3d.csv"
+    poses3d = read_poses_3d(p3) if p3.is_file() else None
+    doc = read_analysis_elements(out)
+    marks = ElementMarks.from_doc(doc) if doc is not None else None
+    return OverlayInputs(r, outputs, poses, find_videos(r.path, r.camera_names), poses3d, marks)
 
 
 def _tl_br(box: np.ndarray, s: float) -> tuple[np.ndarray, np.ndarray]:
@@ -121,6 +136,42 @@ def _skeletons(img: np.ndarray, poses: Poses2D, rows: np.ndarray, s: float) -> N
             cv2.circle(img, xy[j], 3 << _SHIFT, col, -1, cv2.LINE_AA, _SHIFT)
 
 
+def _skeletons_3d(img: np.ndarray, uv: np.ndarray, bones: np.ndarray, s: float) -> None:
+    """Bones of projected 3D poses ``uv`` (n, J, 2) raw camera pixels (NaN: not estimated or behind)."""
+    k = s * (1 << _SHIFT)
+    ok = np.all(np.isfinite(uv), -1)
+    xy = np.round(np.nan_to_num(uv) * k).clip(-2**28, 2**28).astype(np.int64)
+    a, b = bones[:, 0], bones[:, 1]
+    for row, bone in zip(*np.nonzero(ok[:, a] & ok[:, b])):
+        cv2.line(img, xy[row, a[bone]].tolist(), xy[row, b[bone]].tolist(), SKELETON_3D, 2, cv2.LINE_AA, _SHIFT)
+
+
+def _ascii(text: str) -> str:
+    """OpenCV's Hershey fonts draw ASCII only."""
+    return text.replace(" · ", " | ").replace("°", "").replace(" ± ", "+-").encode("ascii", "replace").decode()
+
+
+def draw_captions(img: np.ndarray, lines: Sequence[tuple[str, str]]) -> None:
+    """Captions ``(kind, text)`` at the bottom left of ``img`` (in place), the last lowest: a dark
+    backdrop, a swatch in the kind's colour, the text in white; sized to the image's width."""
+    if not lines:
+        return
+    h, w = img.shape[:2]
+    texts = [_ascii(t) for _, t in lines]
+    fs = float(np.clip(w / 1200, 0.35, 0.7))
+    widest = max(cv2.getTextSize(t, CAPTION_FONT, fs, 1)[0][0] for t in texts)
+    fs = max(0.3, fs * min(1.0, (w - 24 - 20 * fs) / widest))  # shrink to fit the view's width
+    lh = int(round(24 * fs)) + 2  # line height
+    y = h - 4
+    for (kind, _), txt in zip(reversed(list(lines)), reversed(texts)):
+        (tw, _), _ = cv2.getTextSize(txt, CAPTION_FONT, fs, 1)
+        sw = lh - 8
+        cv2.rectangle(img, (2, y - lh), (min(w - 1, 14 + sw + tw), y), (0, 0, 0), -1)
+        cv2.rectangle(img, (6, y - lh + 4), (6 + sw, y - 4), kind_bgr(kind), -1)
+        cv2.putText(img, txt, (12 + sw, y - lh // 2 + int(8 * fs)), CAPTION_FONT, fs, (255, 255, 255), 1, cv2.LINE_AA)
+        y -= lh + 2
+
+
 class _Index:
     """Rows of a table by (frame, camera), found by binary search on the sorted keys."""
 
@@ -138,7 +189,7 @@ def draw_view(img: np.ndarray, s: float, frame: int, camera: int, inputs: Overla
     """Draw one view's overlay of ``frame`` on ``img`` (in place); ``s``: image pixels per camera pixel.
 
     Order (bottom to top): raw detections (thin grey), the 3D tracks' boxes (id colour, labelled),
-    the skeletons, ``b_buf`` (yellow)."""
+    the 2D skeletons, the projected 3D skeleton (red), ``b_buf`` (yellow), the element captions."""
     o = inputs.outputs
     idx = index if index is not None else _indices(inputs)
     dets = inputs.routine.detections
@@ -146,7 +197,14 @@ def draw_view(img: np.ndarray, s: float, frame: int, camera: int, inputs: Overla
     _boxes(img, o.boxes, idx["box"].rows(frame, camera), s, None, 2, labels=True)
     if inputs.poses is not None:
         _skeletons(img, inputs.poses, idx["pose"].rows(frame, camera), s)
+    if inputs.poses3d is not None:
+        rows = idx["pose3d"].rows(frame, 0)
+        if rows.size:
+            cam = inputs.routine.rig[camera]
+            _skeletons_3d(img, cam.project(inputs.poses3d.xyz[rows]), inputs.poses3d.skeleton.bones, s)
     _boxes(img, o.target_boxes, idx["target"].rows(frame, camera), s, B_BUF, 3)
+    if inputs.marks is not None:
+        draw_captions(img, inputs.marks.at(frame))
 
 
 def _indices(inputs: OverlayInputs) -> dict:
@@ -155,6 +213,8 @@ def _indices(inputs: OverlayInputs) -> dict:
            "target": _Index(o.target_boxes.frame, o.target_boxes.camera)}
     if inputs.poses is not None:
         idx["pose"] = _Index(inputs.poses.frame, inputs.poses.camera)
+    if inputs.poses3d is not None:
+        idx["pose3d"] = _Index(inputs.poses3d.frame, np.zeros_like(inputs.poses3d.frame))
     return idx
 
 
@@ -237,4 +297,6 @@ def write_overlay(routine: str | Path, out: str | Path, video: str | Path, camer
         n = write_video(tmp, images(), inputs.routine.scene.fps, options=fast)
     used = names if camera is None else (camera,)
     return {"frames": n, "size": (shape[1], shape[0]) if shape else None, "path": Path(video),
+            "poses_3d": 0 if inputs.poses3d is None else len(inputs.poses3d),
+            "elements": 0 if inputs.marks is None else len(inputs.marks.elements),
             "videos": [c for c in used if c in inputs.videos], "canvas": [c for c in used if c not in inputs.videos]}

@@ -19,6 +19,12 @@ Entities (world z up, timeline ``frame`` = the files' frame numbers)::
     world/track_paths              LineStrips3D, one strip per track id
     world/target, world/target/skeleton, world/poses   the target, its 3D pose; other tracks' poses
     world/gt/persons, world/gt/skeleton                ground truth
+    world/target/flights           LineStrips3D: the target's path in each flight, labelled with its counts
+    analysis/elements              TextLog: each element's start ("flight 1: 1 salto, 0.5 twist, tuck, ...") and end
+    analysis/now                   TextDocument per frame: the elements going on, the hold timer
+    analysis/com_z, analysis/somersault, analysis/twist   Scalars of angles.csv (plots on the timeline)
+
+The ``analysis/`` entities and the flights appear where ``gymtrack analyse`` wrote ``<out>/analysis/``.
 
 Rerun (``rerun-sdk``) is the optional ``view`` extra, imported lazily. :func:`read_recording`
 reads a recording back with Rerun's own reader (``rerun.chunk.RrdReader``).
@@ -32,6 +38,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from ..errors import InputError
+from .element_marks import element_events, kind_bgr
 from .overlay import B_BUF, DETECTION, id_colours, load_overlay_inputs, replace_when_done
 
 TARGET = (230, 30, 30)  # RGB
@@ -233,6 +240,48 @@ def _log_gt(rec, rr, routine_path: Path, camera_names) -> object | None:
     return gt
 
 
+def analysis_entries(marks) -> tuple[np.ndarray, list[str]]:
+    """(frame (N,), text) of the ``analysis/now`` document: the captions of every frame from the first
+    element to one past the last shown (empty where nothing goes on, so the document clears)."""
+    if not len(marks.elements):
+        return np.zeros(0, np.int64), []
+    f = np.arange(int(marks.start.min()), int(marks.end.max()) + 2, dtype=np.int64)
+    return f, marks.per_frame(f)
+
+
+def _log_analysis(rec, rr, inputs, out: Path) -> int:
+    """The analysis stage's elements and angles (module docstring); returns the elements logged."""
+    marks = inputs.marks
+    if marks is not None:
+        doc = {"elements": marks.elements}
+        frames, texts, kinds = element_events(doc)
+        _send(rec, rr, "analysis/elements", frames, rr.TextLog, text=texts, level=["INFO"] * len(texts),
+              color=np.asarray([kind_bgr(k)[::-1] for k in kinds], np.uint8).reshape(-1, 3))
+        f, now = analysis_entries(marks)
+        _send(rec, rr, "analysis/now", f, rr.TextDocument, text=now)
+        g = inputs.outputs.target
+        strips, labels = [], []
+        for i, el in enumerate(marks.elements):
+            if el["kind"] == "flight":
+                m = (g.frame >= el["start_frame"]) & (g.frame <= el["end_frame"])
+                if m.sum() >= 2:
+                    strips.append(g.xyz[m][np.argsort(g.frame[m])])
+                    labels.append(marks.caption(i, el["end_frame"]).rsplit("  ", 1)[0])
+        if strips:
+            rec.log("world/target/flights", rr.LineStrips3D(strips, colors=[kind_bgr("flight")[::-1]], labels=labels,
+                                                            radii=[0.03]), static=True)
+    ap = out / "analysis" / "angles.csv"
+    if ap.is_file():
+        from ..formats.elements import read_angles
+
+        a = read_angles(ap)
+        for name in ("com_z", "somersault", "twist"):
+            ok = np.isfinite(a[name])
+            rec.send_columns(f"analysis/{name}", indexes=[rr.TimeColumn("frame", sequence=a["frame"][ok])],
+                             columns=rr.Scalars.columns(scalars=a[name][ok]))
+    return 0 if marks is None else len(marks.elements)
+
+
 def write_recording(routine: str | Path, out: str | Path, rrd: str | Path, videos: bool = True,
                     progress: Callable[[str], None] | None = None) -> dict:
     """Write the Rerun recording ``rrd`` of ``routine`` and the outputs in ``out`` (see the module's
@@ -254,6 +303,7 @@ def write_recording(routine: str | Path, out: str | Path, rrd: str | Path, video
             gt = _log_gt(rec, rr, r.path, r.camera_names)
             counts = _log_3d(rec, rr, inputs, r.path, Path(out))
             _log_2d(rec, rr, inputs, gt)
+            counts["elements"] = _log_analysis(rec, rr, inputs, Path(out))
         finally:
             rec.flush()
             rec.disconnect()
