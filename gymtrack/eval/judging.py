@@ -14,8 +14,8 @@ simulated pose model on the method's boxes) is analysed the same way and scored
 measures are the measurement itself; the uncertainties are not scored).
 
 Rows: a method's benchmark row gains ``judge_parts`` (JSON: its element parts and its angle errors
-as histograms: 0.1 deg bins below 20 deg, then 0.5 deg to 60, then 2 deg, so pooled medians are
-exact to a bin); the routine's first judged row also carries ``judge_truth_parts`` (the
+as histograms: exact zeros, 0.1 deg bins below 20 deg, then 0.5 deg to 60, then 2 deg, so pooled
+medians are exact to a bin); the routine's first judged row also carries ``judge_truth_parts`` (the
 definitions check). :func:`judging_tables`, :func:`judging_claims` and :func:`judging_markdown`
 pool them.
 """
@@ -41,8 +41,8 @@ __all__ = ["JUDGE_METHODS", "JudgingTruth", "truth_poses", "judging_columns", "j
 
 JUDGE_METHODS: tuple[str, ...] = ("cascade+", "cascade", "triangulation", "oracle")
 TRUTH = "ground-truth skeleton"
-_EDGES = np.concatenate([np.arange(0.0, 20.0, 0.1), np.arange(20.0, 60.0, 0.5), np.arange(60.0, 182.0, 2.0)])
-_MIDS = 0.5 * (_EDGES[1:] + _EDGES[:-1])
+_EDGES = np.concatenate([[0.0, 1e-9], np.arange(0.1, 20.0, 0.1), np.arange(20.0, 60.0, 0.5), np.arange(60.0, 182.0, 2.0)])
+_MIDS = 0.5 * (_EDGES[1:] + _EDGES[:-1])  # the first bin holds exact zeros (the definitions check)
 
 
 def truth_poses(frames: np.ndarray, joints: np.ndarray, track_id: int):
