@@ -292,7 +292,8 @@ def judging_markdown(rows: Sequence[dict], config: BenchmarkConfig = DEFAULT_CON
     if t["truth"]:
         parts += ["**Definitions check: the analysis of the ground-truth skeleton itself** (must be perfect: 100 % recall, "
                   "precision and shares, zero errors)", ""]
-        body = [[ABBREVIATIONS.get(a, a) if a != "all" else "**all**"] + judging_line(s) for a, s in t["truth"].items()]
+        order = [a for a in APPARATUS_NAMES if a in t["truth"]] + sorted(set(t["truth"]) - set(APPARATUS_NAMES) - {"all"}) + ["all"]
+        body = [[ABBREVIATIONS.get(a, a) if a != "all" else "**all**"] + judging_line(t["truth"][a]) for a in order if a in t["truth"]]
         parts += [markdown_table(["app."] + HEADER, body), ""]
     claims = judging_claims(rows, config)
     parts += ["**Judging targets of the issue** (cascade+, the default mode, pooled over apparatus)", "",
