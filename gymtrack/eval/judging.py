@@ -42,7 +42,7 @@ __all__ = ["JUDGE_METHODS", "JudgingTruth", "truth_poses", "judging_columns", "j
 JUDGE_METHODS: tuple[str, ...] = ("cascade+", "cascade", "triangulation", "oracle")
 TRUTH = "ground-truth skeleton"
 _EDGES = np.concatenate([[0.0, 1e-9], np.arange(0.1, 20.0, 0.1), np.arange(20.0, 60.0, 0.5), np.arange(60.0, 182.0, 2.0)])
-_MIDS = 0.5 * (_EDGES[1:] + _EDGES[:-1])  # the first bin holds exact zeros (the definitions check)
+_MIDS = np.concatenate([[0.0], 0.5 * (_EDGES[2:] + _EDGES[1:-1])])  # the first bin: exact zeros (the definitions check)
 
 
 def truth_poses(frames: np.ndarray, joints: np.ndarray, track_id: int):
