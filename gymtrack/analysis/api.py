@@ -193,7 +193,7 @@ def analyse(poses3d: Poses3D, scene: Scene, track_id: int | None = None, *, fps:
     els += E.landings(frame, Xf, J.sigma, feet_h, fps, land_rows)
     els += E.holds(frame, Xf, J.sigma, cols["inclination"], fps)
     if "circle" not in miss and "somersault" not in miss:
-        els += E.circles(frame, cols["somersault"][0], grip)
+        els += E.circles(frame, cols["somersault"][0], grip, fps)
     com0 = np.column_stack([cols["com_x"][0], cols["com_y"][0], cols["com_z"][0]])
     els += E.turns(frame, Xf, heading(Xf), sup, cols["inclination"][0], foot_contact(Xf, geo, height), com0, fps)
     els.sort(key=lambda e: (e.get("start_frame", e.get("frame")), e["kind"]))

@@ -10,10 +10,11 @@ of Points judges). Rules (``shared/formats.md``) and their refinements (``docs/a
 * hold: at least 1.0 s with every joint slower than 0.1 m/s. Refined: the speed over
   +-:data:`SPEED_HALF_S` and "slower" within two standard deviations of its noise, so a still
   body measured with 2 cm joint noise is still.
-* circle: one element per full 360 deg of somersault while both hands hold a bar.
-* turn: at least 90 deg about the vertical on support, rounded to 90. Refined: a *pivot* -- one
-  foot off the support for half the turn and the centre of mass moving under 0.5 m -- so turning
-  to face the judges or walking round a corner is not a turn element.
+* circle: one element per full 360 deg of somersault while both hands hold a bar, counted inside
+  each run of one rotation direction (a swing's reversal starts a new run).
+* turn: at least 90 deg about the vertical on support, rounded to 90. Refined: on the spot (the
+  centre of mass moves under 0.5 m), so walking round a corner is not a turn; 85 deg count
+  (a turn sampled at the frame rate ends a few degrees short).
 
 Inputs are (S, M) per-frame columns (row 0 the measurement, rows 1.. Monte Carlo samples) and
 the measurement's joints ``X`` (M, K, 3).
@@ -30,7 +31,9 @@ from .support import ANKLES, NONE
 STEP_M, LIFT_M, LANDING_S = 0.10, 0.05, 2.0
 STILL_MPS = 0.30  #: a foot slower than this (and on the floor) is planted
 HOLD_S, HOLD_MPS, SPEED_HALF_S = 1.0, 0.10, 0.1
-TURN_MIN_DEG, TURN_RATE_DEG_S, PIVOT_LIFTED, PIVOT_TRAVEL_M = 75.0, 30.0, 0.5, 0.5
+TURN_MIN_DEG, TURN_RATE_DEG_S, TURN_TRAVEL_M = 85.0, 30.0, 0.5
+FULL_TURN_TOL = 10.0  #: degrees
+CIRCLE_MAX_S = 3.0  #: a circle is a swing: one turn in at most this long
 
 
 def _sd(v: np.ndarray) -> float | None:
@@ -113,19 +116,37 @@ def holds(frame: np.ndarray, X: np.ndarray, sigma: np.ndarray, incl: np.ndarray,
     return out
 
 
-def circles(frame: np.ndarray, som: np.ndarray, grip: np.ndarray) -> list[dict]:
-    """One circle record per full turn of somersault (degrees, (M,)) while the hands hold a bar."""
+def circles(frame: np.ndarray, som: np.ndarray, grip: np.ndarray, fps: float) -> list[dict]:
+    """One circle record per full turn of somersault (degrees, (M,)) while the hands hold a bar:
+    inside each run of one rotation direction (a swing's reversal starts a new run), counted from
+    the run's start; a turn short of 360 by under :data:`FULL_TURN_TOL` counts (sampling)."""
     out = []
     for a, b in runs(grip & np.isfinite(som), frame):
-        s = som[a:b + 1] - som[a]
-        d = np.sign(s[-1]) if s[-1] != 0 else 1.0
-        turns = int(np.floor(d * s[-1] / 360 + 1e-9))
-        start = a
-        for k in range(1, turns + 1):
-            end = a + int(np.argmax(d * s >= 360 * k))
-            out.append({"kind": "circle", "start_frame": int(frame[start]), "end_frame": int(frame[end]), "turns": 1,
-                        "direction": int(d)})
-            start = end
+        s = som[a:b + 1]
+        if len(s) < 3:
+            continue
+        rate = np.gradient(s)
+        sign = np.where(np.abs(rate) > 0.5, np.sign(rate), 0.0)
+        idx = np.where(sign != 0, np.arange(len(s)), 0)
+        np.maximum.accumulate(idx, out=idx)
+        sign = sign[idx]  # a pause keeps the direction it had
+        cuts = np.flatnonzero(np.diff(sign) != 0) + 1
+        for p, q in zip(np.concatenate([[0], cuts]), np.concatenate([cuts - 1, [len(s) - 1]])):
+            d = sign[p]
+            if d == 0:
+                continue
+            prog = d * (s[p:q + 1] - s[p])
+            k, start = 1, p
+            while True:
+                hit = np.flatnonzero(prog >= 360.0 * k - FULL_TURN_TOL)
+                if hit.size == 0:
+                    break
+                end = p + int(hit[0])
+                if (frame[a + end] - frame[a + start]) > CIRCLE_MAX_S * fps:
+                    break  # a slow turn through held positions (rings) is no circle
+                out.append({"kind": "circle", "start_frame": int(frame[a + start]), "end_frame": int(frame[a + end]),
+                            "turns": 1, "direction": int(d)})
+                start, k = end + 1, k + 1
     return out
 
 
@@ -156,9 +177,8 @@ def turns(frame: np.ndarray, X: np.ndarray, heading: np.ndarray, support: np.nda
             if abs(delta) < TURN_MIN_DEG:
                 continue
             seg = slice(a + p, a + q + 1)
-            lifted = np.mean(~np.all(feet_on[seg], axis=1))
             travel = np.nanmax(np.linalg.norm(com[seg, :2] - com[a + p, :2], axis=1))
-            if lifted < PIVOT_LIFTED or travel > PIVOT_TRAVEL_M:
+            if not travel <= TURN_TRAVEL_M:
                 continue
             out.append({"kind": "turn", "start_frame": int(frame[a + p]), "end_frame": int(frame[a + q]),
                         "degrees": float(90 * round(abs(delta) / 90)), "direction": int(np.sign(delta)),
