@@ -28,9 +28,8 @@ simulator's exact state, never to a measured skeleton:
 - circle: a run of giants on one grip in one direction, one element per full 360 deg of
   somersault from the run's start (less :data:`FULL_TURN_TOL_DEG`: a giant from handstand to
   handstand, sampled, stops a degree or two short).
-- turn: a pivot (the beam's turns on one foot), of at least 90 deg (less 5 deg:
-  :data:`MIN_TURN_DEG`), rounded to 90; turning to face the judges or the apparatus with both feet
-  down is no turn element.
+- turn: a pivot (beam) or a turn on the spot while standing, of at least 90 deg (less 5 deg:
+  :data:`MIN_TURN_DEG`), rounded to 90.
 """
 
 from __future__ import annotations
@@ -44,7 +43,7 @@ UPRIGHT_TOL_DEG = 10.0  #: frames this close to the window's most upright one co
 MIN_FLIGHT_S = 0.15
 HOLD_SPEED = 0.1  #: m/s
 MIN_HOLD_S = 1.0
-MIN_TURN_DEG = 85.0  #: "at least 90 deg", less a margin for a pivot sampled a hair short
+MIN_TURN_DEG = 85.0  #: "at least 90 deg", less a frame's worth (a turn to face the judges ends a hair short)
 FULL_TURN_TOL_DEG = 10.0  #: a giant sampled at 30 fps stops within a frame's rotation of its handstand
 NO_COM = ("the simulator has no mass model (its body centre is the box centre, not the centre of mass): "
           "the true value is the analysis of gt/keypoints_3d.csv")

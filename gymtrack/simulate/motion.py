@@ -178,8 +178,11 @@ class MotionBuilder(GripPhases):
         tw = self.twist + w * (np.round(self.twist / (2 * np.pi)) * 2 * np.pi - self.twist)
         xy = self.centre[:2] + self._wobble(n, sway)
         c = self.body.centre_on_feet(xy, support_z, a, yw, pw, tw)
-        self.record("still", self.n, self.n + n - 1)  # facing somewhere new is no turn element: both feet stay down
+        n0, yaw0 = self.n, self.yaw
         self.append(c, yw, pw, tw, a, posture, phase)
+        self.record("still", n0, n0 + n - 1)
+        if yaw1 != yaw0:  # a turn on the spot
+            self.record("turn", n0, n0 + n - 1, degrees=float(np.degrees(yaw1 - yaw0)))
 
     def _wobble(self, n: int, amp: float) -> np.ndarray:
         """(n, 2) a slow zero-start wobble of amplitude ``amp`` metres (balance, breathing)."""
