@@ -13,7 +13,7 @@ of Points judges). Rules (``shared/formats.md``) and their refinements (``docs/a
 * circle: one element per full 360 deg of somersault while both hands hold a bar, counted inside
   each run of one rotation direction (a swing's reversal starts a new run).
 * turn: at least 90 deg about the vertical on support, rounded to 90. Refined: on the spot (the
-  centre of mass moves under 0.5 m), so walking round a corner is not a turn; 85 deg count
+  centre of mass is within 0.6 m of where the turn began 1 s after it ends), so turning into a walk is not a turn; 85 deg count
   (a turn sampled at the frame rate ends a few degrees short).
 
 Inputs are (S, M) per-frame columns (row 0 the measurement, rows 1.. Monte Carlo samples) and
@@ -31,7 +31,7 @@ from .support import ANKLES, NONE
 STEP_M, LIFT_M, LANDING_S = 0.10, 0.05, 2.0
 STILL_MPS = 0.30  #: a foot slower than this (and on the floor) is planted
 HOLD_S, HOLD_MPS, SPEED_HALF_S = 1.0, 0.10, 0.1
-TURN_MIN_DEG, TURN_RATE_DEG_S, TURN_TRAVEL_M = 85.0, 30.0, 0.5
+TURN_MIN_DEG, TURN_RATE_DEG_S, TURN_TRAVEL_M, TURN_AFTER_S = 85.0, 30.0, 0.5, 0.3
 FULL_TURN_TOL = 10.0  #: degrees
 CIRCLE_MAX_S = 3.0  #: a circle is a swing: one turn in at most this long
 
@@ -74,6 +74,11 @@ def landings(frame: np.ndarray, X: np.ndarray, sigma: np.ndarray, feet_h: np.nda
     return out
 
 
+def merge_touching(spans: list[tuple[int, int]]) -> list[tuple[int, int]]:
+    """Inclusive spans, overlapping or adjacent ones joined."""
+    return merge(sorted(spans), 0)
+
+
 def joint_speed(frame: np.ndarray, X: np.ndarray, sigma: np.ndarray, fps: float) -> tuple[np.ndarray, np.ndarray]:
     """(M, K) each joint's speed (m/s) over +-SPEED_HALF_S and its noise sd (NaN at the ends)."""
     h = max(1, int(round(SPEED_HALF_S * fps)))
@@ -94,8 +99,22 @@ def holds(frame: np.ndarray, X: np.ndarray, sigma: np.ndarray, incl: np.ndarray,
         fast = np.nan_to_num(v - 2 * np.nan_to_num(sd), nan=0.0) >= HOLD_MPS
         seen = np.isfinite(v).sum(1) >= 8
     still = ~fast.any(1) & seen
-    out = []
+    # the +-h window blurs a hold's ends by up to h rows: extend a run while each one-row step is still
+    h = max(1, int(round(SPEED_HALF_S * fps)))
+    step = np.linalg.norm(np.diff(X, axis=0), axis=-1) * fps / np.maximum(np.diff(frame), 1)[:, None]
+    with np.errstate(invalid="ignore"):
+        calm = ~np.any(np.nan_to_num(step, nan=0.0) >= HOLD_MPS, axis=1)  # (M-1,) strict: no noise allowance
+    spans = []
     for a, b in runs(still, frame):
+        for _ in range(h):
+            if a > 0 and calm[a - 1]:
+                a -= 1
+        for _ in range(h):
+            if b < len(frame) - 1 and calm[b]:
+                b += 1
+        spans.append((a, b))
+    out = []
+    for a, b in merge_touching(spans):
         dur = (frame[b] - frame[a] + 1) / fps
         if dur < HOLD_S - 1e-9:
             continue
@@ -177,7 +196,8 @@ def turns(frame: np.ndarray, X: np.ndarray, heading: np.ndarray, support: np.nda
             if abs(delta) < TURN_MIN_DEG:
                 continue
             seg = slice(a + p, a + q + 1)
-            travel = np.nanmax(np.linalg.norm(com[seg, :2] - com[a + p, :2], axis=1))
+            after = np.flatnonzero((frame >= frame[a + p]) & (frame <= frame[a + q] + TURN_AFTER_S * fps))
+            travel = np.linalg.norm(com[after[-1], :2] - com[a + p, :2])  # walking on after turning is no turn
             if not travel <= TURN_TRAVEL_M:
                 continue
             out.append({"kind": "turn", "start_frame": int(frame[a + p]), "end_frame": int(frame[a + q]),

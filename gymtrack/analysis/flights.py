@@ -24,7 +24,7 @@ MIN_FLIGHT_S = 0.15
 BALLISTIC = 0.5  #: a flight's fitted vertical acceleration lies within this share of g from -g
 BALLISTIC_ROWS = 8  #: shorter runs are too short to fit an acceleration to: flights by contact alone
 WINDOW_S = 1.5
-UPRIGHT_TOL = 5.0  #: degrees
+UPRIGHT_TOL = 10.0  #: degrees (the simulator's ground truth uses the same)
 SHAPE_CLOSED, SHAPE_OPEN = 90.0, 135.0
 
 

@@ -30,6 +30,7 @@ EXTRA_BLOCKS: dict[str, tuple[tuple[tuple[float, float, float], tuple[float, flo
 TOUCH = 0.10  #: metres: a joint this close to a surface touches it
 SOLE = 0.04  #: ankle height over the sole, as a fraction of the body's height
 TOE = 0.06  #: metres more for a still ankle: a foot on its toes (take-off, landing) has the ankle higher
+GRIP_STILL = 2.0  #: m/s: a joint faster than this towards both neighbouring rows passes an apparatus by
 TOE_STILL = 1.0  #: m/s: an ankle slower than this (vertically, either side of the frame) may be on its toes
 NONE, FLOOR, APPARATUS = 0, 1, 2  #: support codes (``formats.elements.SUPPORT_NAMES`` order)
 ANKLES = (I["left_ankle"], I["right_ankle"])
@@ -93,30 +94,39 @@ def scene_geometry(scene: Scene) -> Geometry:
     return Geometry(app.name, a, b, r, lo, hi, yaw, shift, normal)
 
 
-def bar_distance(P: np.ndarray, a: np.ndarray, b: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """(..., B) distance from points P (..., 3) to the surfaces of B cylinders (axis a-b, radius r)."""
+def bar_distance(P: np.ndarray, a: np.ndarray, b: np.ndarray, r: np.ndarray, on_top: bool = False) -> np.ndarray:
+    """(..., B) distance from points P (..., 3) to the surfaces of B cylinders (axis a-b, radius r);
+    ``on_top``: inf where the point lies below the axis (it cannot rest on the bar)."""
     ab = b - a
     t = np.clip(np.einsum("...bk,bk->...b", P[..., None, :] - a, ab) / np.maximum(np.sum(ab * ab, -1), 1e-12), 0, 1)
     closest = a + t[..., None] * ab
-    return np.linalg.norm(P[..., None, :] - closest, axis=-1) - r
+    d = np.linalg.norm(P[..., None, :] - closest, axis=-1) - r
+    return np.where(P[..., None, 2] >= closest[..., 2], d, np.inf) if on_top else d
 
 
-def box_distance(P: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """(..., Q) distance from points P (..., 3) to Q axis-aligned boxes (0 inside)."""
-    d = np.maximum(np.maximum(lo - P[..., None, :], P[..., None, :] - hi), 0.0)
-    return np.linalg.norm(d, axis=-1)
+def box_distance(P: np.ndarray, lo: np.ndarray, hi: np.ndarray, on_top: bool = False) -> np.ndarray:
+    """(..., Q) distance from points P (..., 3) to Q axis-aligned boxes (0 inside); ``on_top``: inf
+    where the point lies below the box's top."""
+    d = np.linalg.norm(np.maximum(np.maximum(lo - P[..., None, :], P[..., None, :] - hi), 0.0), axis=-1)
+    return np.where(P[..., None, 2] >= hi[:, 2], d, np.inf) if on_top else d
 
 
-def apparatus_distance(X: np.ndarray, geo: Geometry) -> np.ndarray:
-    """(M, K) each joint's distance to the nearest apparatus surface (inf without an apparatus)."""
+def apparatus_distance(X: np.ndarray, geo: Geometry, on_top: bool = False, bars: str = "all") -> np.ndarray:
+    """(..., K) each joint's distance to the nearest apparatus surface (inf without an apparatus);
+    ``on_top``: only surfaces the joint lies on top of; ``bars``: ``all`` surfaces, ``grasp`` the bars
+    and rings a hand holds only, ``solid`` every surface but those."""
     out = np.full(X.shape[:-1], np.inf)
-    if len(geo.bar_r):
-        out = np.minimum(out, bar_distance(X, geo.bar_a, geo.bar_b, geo.bar_r).min(-1))
+    grasp = np.full(len(geo.bar_r), geo.apparatus != "balance_beam")  # the beam's "bar" is its top edge
+    keep = {"all": np.ones(len(geo.bar_r), bool), "grasp": grasp, "solid": ~grasp}[bars]
+    if keep.any():
+        out = np.minimum(out, bar_distance(X, geo.bar_a[keep], geo.bar_b[keep], geo.bar_r[keep], on_top).min(-1))
+    if bars == "grasp":
+        return out
     if len(geo.box_lo):
         # blocks are axis-aligned in the preset's frame: take the points back into it
         R = _rot(geo.yaw)
         P = (X - geo.shift) @ R
-        out = np.minimum(out, box_distance(P, geo.box_lo, geo.box_hi).min(-1))
+        out = np.minimum(out, box_distance(P, geo.box_lo, geo.box_hi, on_top).min(-1))
     return out
 
 
@@ -138,7 +148,18 @@ def support(X: np.ndarray, geo: Geometry, height: float, frame: np.ndarray | Non
         touch[:, list(ANKLES)] += TOE * _still(X[:, list(ANKLES), 2], frame, fps)
     with np.errstate(invalid="ignore"):
         floor = X[..., 2] - sole
-        app = apparatus_distance(X, geo) - sole
+        # hands and feet hold and stand; the other joints rest on top (shoulders rising between the
+        # parallel bars' rails, or legs swinging past the low bar, touch nothing); a joint sweeping
+        # past a bar or rail faster than GRIP_STILL does not hold it
+        body = np.ones(X.shape[1], bool)
+        body[list(WRISTS + ANKLES)] = False
+        grasp = apparatus_distance(X, geo, bars="grasp")
+        grasp[:, body] = apparatus_distance(X[:, body], geo, on_top=True, bars="grasp")
+        if frame is not None and len(frame) > 1:
+            grasp = np.where(_slow(X, frame, fps, GRIP_STILL), grasp, np.inf)
+        solid = apparatus_distance(X, geo, bars="solid")
+        solid[:, body] = apparatus_distance(X[:, body], geo, on_top=True, bars="solid")
+        app = np.minimum(grasp, solid) - sole
         on_app = np.any(np.nan_to_num(app, nan=np.inf) < touch, axis=1)
         on_floor = np.any(np.nan_to_num(floor, nan=np.inf) < touch, axis=1)
     codes = np.where(on_app, APPARATUS, np.where(on_floor, FLOOR, NONE)).astype(np.int8)
@@ -149,6 +170,15 @@ def support(X: np.ndarray, geo: Geometry, height: float, frame: np.ndarray | Non
             d = bar_distance(w, geo.bar_a, geo.bar_b, geo.bar_r)  # (M, 2, B)
             grip = np.all(np.nan_to_num(d, nan=np.inf).min(-1) < TOUCH, axis=1)  # each hand on a bar or ring
     return codes, grip
+
+
+def _slow(P: np.ndarray, frame: np.ndarray, fps: float, limit: float) -> np.ndarray:
+    """(M, n) the points P (M, n, 3) move slower than ``limit`` (m/s) towards the previous or the next row."""
+    dt = np.diff(frame)[:, None] / fps
+    v = np.linalg.norm(np.diff(P, axis=0), axis=-1) / dt
+    inf = np.full((1, P.shape[1]), np.inf)
+    with np.errstate(invalid="ignore"):
+        return np.nan_to_num(np.fmin(np.vstack([inf, v]), np.vstack([v, inf])), nan=np.inf) < limit
 
 
 def _still(z: np.ndarray, frame: np.ndarray, fps: float) -> np.ndarray:
