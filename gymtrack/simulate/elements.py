@@ -28,9 +28,8 @@ simulator's exact state, never to a measured skeleton:
 - circle: a run of giants on one grip in one direction, one element per full 360 deg of
   somersault from the run's start (less :data:`FULL_TURN_TOL_DEG`: a giant from handstand to
   handstand, sampled, stops a degree or two short).
-- turn: a turn on support of at least 90 deg (less 5 deg: :data:`MIN_TURN_DEG`), rounded to 90:
-  a pivot (beam), a turn on the spot while standing (to face the judges, the apparatus), the
-  heading's turn as a walk sets off (its first 0.5 s, the body barely moving).
+- turn: a pivot (beam) or a turn on the spot while standing, of at least 90 deg (less 5 deg:
+  :data:`MIN_TURN_DEG`), rounded to 90.
 """
 
 from __future__ import annotations

@@ -230,8 +230,6 @@ class MotionBuilder(GripPhases):
         xy_t = start[None] + s[:, None] * u[None] + sway[:, None] * side[None]
         tw = np.full(n, self.twist)
         c = self.body.centre_on_feet(xy_t, support_z, a, yaw, pitch, tw)
-        k = int(min(np.searchsorted(t, 0.5), n - 1))  # the heading turns in the first 0.5 s, the body barely moving
-        self.record("turn", self.n, self.n + k, degrees=float(np.degrees(yaw[k] - self.yaw)))
         self.append(c, yaw, pitch, tw, a, B.RUN if run else B.WALK, phase)
 
     def turn(self, yaw_delta: float, seconds: float, support_z: float, posture: int = B.TURN, phase: int = SKILL) -> None:
