@@ -107,3 +107,10 @@ def test_a_measured_skeleton_scores_worse_than_the_truth(vault_truth):
     assert truth["angles"]["knee"]["median"] == 0.0 and 0.5 < noisy["angles"]["knee"]["median"] < 8
     assert noisy["kinds"]["flight"]["matched"] >= 1 and noisy["flight"]["apex_err_m"]["median"] > 0
     assert judging_columns("mvpt", None, sim.scene, jt) == {}  # not a judged method
+
+
+def test_unbinned_columns_keep_a_mean_only():
+    h = angle_histograms({"left_knee": [1.0, 3.0], "split": [2.0, 6.0]}, binned=("left_knee",))
+    assert "bins" not in h["split"] and histogram_stats([h["split"]])["mean"] == 4.0
+    assert np.isnan(histogram_stats([h["split"]])["median"])
+    assert histogram_stats([h["left_knee"]])["median"] == pytest.approx(2.0, abs=0.1)
