@@ -179,6 +179,8 @@ def analyse(poses3d: Poses3D, scene: Scene, track_id: int | None = None, *, fps:
     sup, grip = support_codes(J.X, geo, height, J.frame, fps)
     segs = segments(J.frame, sup)
     cols, raw, Xf = measure_samples(J, segs, fps, cutoff_hz, geo.plane_normal, body, samples, seed)
+    if cutoff_hz:  # contact again on the filtered joints (the filter kept every take-off and landing)
+        sup, grip = support_codes(Xf, geo, height, J.frame, fps)
     for m in list(cols):
         if m in miss:
             cols[m][:] = np.nan
