@@ -179,13 +179,17 @@ def analyse(poses3d: Poses3D, scene: Scene, track_id: int | None = None, *, fps:
     sup, grip = support_codes(J.X, geo, height, J.frame, fps)
     segs = segments(J.frame, sup)
     cols, raw, Xf = measure_samples(J, segs, fps, cutoff_hz, geo.plane_normal, body, samples, seed)
+    if cutoff_hz:  # contact again on the filtered joints (the filter kept every take-off and landing)
+        sup, grip = support_codes(Xf, geo, height, J.frame, fps)
     for m in list(cols):
         if m in miss:
             cols[m][:] = np.nan
     frame = J.frame
     els = []
     box_z = 0.5 * (np.nanmax(Xf[..., 2], axis=1) + np.nanmin(Xf[..., 2], axis=1))
-    fl, lifted = find_flights(frame, sup, fps, cols["com_z"][0], box_z)
+    # the heights' sd: the joints' mean sigma over the ~sqrt(8) independent segments the centre averages
+    sigma_z = np.nanmean(J.sigma, axis=1) / np.sqrt(8)
+    fl, lifted = find_flights(frame, sup, fps, cols["com_z"][0], box_z, sigma_z)
     fels = flight_elements(frame, cols, sup, fps, fl)
     land_rows = [e.pop("_landing_row") for e in fels if "_landing_row" in e]
     els += fels

@@ -11,7 +11,8 @@ of Points judges). Rules (``shared/formats.md``) and their refinements (``docs/a
   +-:data:`SPEED_HALF_S` and "slower" within two standard deviations of its noise, so a still
   body measured with 2 cm joint noise is still.
 * circle: one element per full 360 deg of somersault while both hands hold a bar, counted inside
-  each run of one rotation direction (a swing's reversal starts a new run).
+  each run of one rotation direction (a swing's reversal starts a new run); a grip lost for up to
+  0.15 s (joint noise) is one grip.
 * turn: at least 90 deg about the vertical on support, rounded to 90. Refined: on the spot (the
   centre of mass is within 0.6 m of where the turn began 1 s after it ends), so turning into a walk is not a turn; 85 deg count
   (a turn sampled at the frame rate ends a few degrees short).
@@ -23,6 +24,7 @@ the measurement's joints ``X`` (M, K, 3).
 from __future__ import annotations
 
 import numpy as np
+from scipy.ndimage import gaussian_filter1d
 
 from .flights import runs
 from .joints import I
@@ -31,8 +33,11 @@ from .support import ANKLES, NONE
 STEP_M, LIFT_M, LANDING_S = 0.10, 0.05, 2.0
 STILL_MPS = 0.30  #: a foot slower than this (and on the floor) is planted
 HOLD_S, HOLD_MPS, SPEED_HALF_S = 1.0, 0.10, 0.1
+HOLD_SDS, HOLD_GAP = 3.0, 2  #: a joint is fast when its speed less 3 sd of noise passes HOLD_MPS; gaps of 2 rows close
 TURN_MIN_DEG, TURN_RATE_DEG_S, TURN_TRAVEL_M, TURN_AFTER_S = 85.0, 30.0, 0.5, 0.3
 FULL_TURN_TOL = 10.0  #: degrees
+TURN_SMOOTH_S = 0.05  #: the heading's Gaussian smoothing (s) before its rate is read
+GRIP_GAP_S = 0.15  #: a hand seen off the bar this briefly (joint noise) still holds it
 CIRCLE_MAX_S = 3.0  #: a circle is a swing: one turn in at most this long
 
 
@@ -96,7 +101,7 @@ def holds(frame: np.ndarray, X: np.ndarray, sigma: np.ndarray, incl: np.ndarray,
     """Hold records: at least HOLD_S with every joint still; incl (S, M) inclination samples."""
     v, sd = joint_speed(frame, X, sigma, fps)
     with np.errstate(invalid="ignore"):
-        fast = np.nan_to_num(v - 2 * np.nan_to_num(sd), nan=0.0) >= HOLD_MPS
+        fast = np.nan_to_num(v - HOLD_SDS * np.nan_to_num(sd), nan=0.0) >= HOLD_MPS
         seen = np.isfinite(v).sum(1) >= 8
     still = ~fast.any(1) & seen
     # the +-h window blurs a hold's ends by up to h rows: extend a run while each one-row step is still
@@ -105,7 +110,7 @@ def holds(frame: np.ndarray, X: np.ndarray, sigma: np.ndarray, incl: np.ndarray,
     with np.errstate(invalid="ignore"):
         calm = ~np.any(np.nan_to_num(step, nan=0.0) >= HOLD_MPS, axis=1)  # (M-1,) strict: no noise allowance
     spans = []
-    for a, b in runs(still, frame):
+    for a, b in merge(runs(still, frame), HOLD_GAP):
         for _ in range(h):
             if a > 0 and calm[a - 1]:
                 a -= 1
@@ -140,8 +145,8 @@ def circles(frame: np.ndarray, som: np.ndarray, grip: np.ndarray, fps: float) ->
     inside each run of one rotation direction (a swing's reversal starts a new run), counted from
     the run's start; a turn short of 360 by under :data:`FULL_TURN_TOL` counts (sampling)."""
     out = []
-    for a, b in runs(grip & np.isfinite(som), frame):
-        s = som[a:b + 1]
+    for a, b in merge(runs(grip & np.isfinite(som), frame), int(round(GRIP_GAP_S * fps))):
+        s = np.interp(np.arange(a, b + 1), np.flatnonzero(np.isfinite(som[a:b + 1])) + a, som[a:b + 1][np.isfinite(som[a:b + 1])])
         if len(s) < 3:
             continue
         rate = np.gradient(s)
@@ -189,6 +194,7 @@ def turns(frame: np.ndarray, X: np.ndarray, heading: np.ndarray, support: np.nda
         hd = np.degrees(np.unwrap(heading[a:b + 1]))
         if len(hd) < 3:
             continue
+        hd = gaussian_filter1d(hd, TURN_SMOOTH_S * fps, mode="nearest")  # a turn takes 0.4 s or more
         rate = np.gradient(hd) * fps
         moving = np.abs(rate) > TURN_RATE_DEG_S
         for p, q in merge(runs(moving, frame[a:b + 1]), int(round(0.2 * fps))):

@@ -22,7 +22,6 @@ from .support import FLOOR, NONE
 G = 9.81  #: m/s^2
 MIN_FLIGHT_S = 0.15
 BALLISTIC = 0.5  #: a flight's fitted vertical acceleration lies within this share of g from -g
-BALLISTIC_ROWS = 8  #: shorter runs are too short to fit an acceleration to: flights by contact alone
 WINDOW_S = 1.5
 UPRIGHT_TOL = 10.0  #: degrees (the simulator's ground truth uses the same)
 SHAPE_CLOSED, SHAPE_OPEN = 90.0, 135.0
@@ -38,28 +37,35 @@ def runs(mask: np.ndarray, frame: np.ndarray, max_gap: int = 2) -> list[tuple[in
     return list(zip(np.flatnonzero(start).tolist(), np.flatnonzero(end).tolist()))
 
 
-def fall_rate(t: np.ndarray, z: np.ndarray) -> float:
-    """The vertical acceleration (m/s^2) of a free quadratic fitted to z(t); NaN under 4 points."""
+def fall_rate(t: np.ndarray, z: np.ndarray, sigma: float = 0.0) -> tuple[float, float]:
+    """The vertical acceleration (m/s^2) of a free quadratic fitted to z(t) and its sd for heights
+    known to ``sigma`` (m); NaN under 4 points."""
     ok = np.isfinite(z)
     if ok.sum() < 4:
-        return float("nan")
-    return float(2 * np.polyfit(t[ok] - t[ok][0], z[ok], 2)[0])
+        return float("nan"), float("nan")
+    tt = t[ok] - t[ok].mean()
+    A = np.column_stack([np.ones(tt.size), tt, tt ** 2])
+    coef, *_ = np.linalg.lstsq(A, z[ok], rcond=None)
+    cov = np.linalg.pinv(A.T @ A)
+    return float(2 * coef[2]), float(2 * sigma * np.sqrt(cov[2, 2]))
 
 
-def find_flights(frame: np.ndarray, support: np.ndarray, fps: float, com_z: np.ndarray, box_z: np.ndarray
-                 ) -> tuple[list[tuple[int, int]], list[tuple[int, int]]]:
-    """Row ranges (first, last) of the flights -- support none for at least MIN_FLIGHT_S, and, from
-    BALLISTIC_ROWS rows on, the centre of mass or the centre of the joints' box falling like a thrown
-    body (fitted acceleration within BALLISTIC x g of -g) -- and the runs off every surface that do
-    not fall so (a coach's lift, a support the geometry misses)."""
+def find_flights(frame: np.ndarray, support: np.ndarray, fps: float, com_z: np.ndarray, box_z: np.ndarray,
+                 sigma_z: np.ndarray | None = None) -> tuple[list[tuple[int, int]], list[tuple[int, int]]]:
+    """Row ranges (first, last) of the flights -- support none for at least MIN_FLIGHT_S, and the
+    centre of mass or the centre of the joints' box falling like a thrown body (fitted acceleration
+    within BALLISTIC x g of -g, or within 3 sd of it where the heights are too noisy to tell) -- and
+    the runs off every surface that do not fall so (a coach's lift, a support the geometry misses).
+    sigma_z: (M,) the heights' sd (m) per row."""
     flights, lifted = [], []
     for a, b in runs(support == NONE, frame):
         if (frame[b] - frame[a] + 1) / fps < MIN_FLIGHT_S - 1e-9:
             continue
         t = frame[a:b + 1] / fps
-        accs = [fall_rate(t, com_z[a:b + 1]), fall_rate(t, box_z[a:b + 1])]
-        free = b - a + 1 < BALLISTIC_ROWS or any(np.isfinite(x) and abs(x + G) <= BALLISTIC * G for x in accs) \
-            or not any(np.isfinite(x) for x in accs)
+        sz = float(np.nanmedian(sigma_z[a:b + 1])) if sigma_z is not None and np.isfinite(sigma_z[a:b + 1]).any() else 0.0
+        fits = [fall_rate(t, com_z[a:b + 1], sz), fall_rate(t, box_z[a:b + 1], sz)]
+        free = any(np.isfinite(x) and abs(x + G) <= max(BALLISTIC * G, 3 * sd) for x, sd in fits) \
+            or not any(np.isfinite(x) for x, _ in fits)
         (flights if free else lifted).append((a, b))
     return flights, lifted
 

@@ -99,7 +99,11 @@ def _ffill(a: np.ndarray) -> np.ndarray:
 
 
 def heading(X: np.ndarray) -> np.ndarray:
-    """(..., M) the horizontal heading (radians) of the body's front: the pelvis line (right->left
-    hip) turned +90 deg about z; meaningful when the body is upright."""
+    """(..., M) the horizontal heading (radians) of the body's front: the pelvis and shoulder lines
+    (right->left) summed, turned -90 deg about z (the pelvis alone where a shoulder is missing);
+    meaningful when the body is upright."""
     v = X[..., I["left_hip"], :] - X[..., I["right_hip"], :]
+    w = X[..., I["left_shoulder"], :] - X[..., I["right_shoulder"], :]
+    v = np.where(np.isfinite(w), v / np.linalg.norm(v, axis=-1, keepdims=True)
+                 + w / np.linalg.norm(w, axis=-1, keepdims=True), v)
     return np.arctan2(v[..., 1], v[..., 0]) - np.pi / 2
