@@ -31,10 +31,12 @@ _LAZY = {
     "track_routine": "gymtrack.tracking.offline",
     "Scene": "gymtrack.scene",
     "Rig": "gymtrack.geometry.camera",
+    "analyse": "gymtrack.analysis.api",
+    "Analysis": "gymtrack.analysis.api",
 }
 
-__all__ = ["Detections", "GymtrackError", "InputError", "Rig", "Scene", "Tracker", "TrackerOutput",
-           "track_detections", "track_routine", "__version__"]
+__all__ = ["Analysis", "Detections", "GymtrackError", "InputError", "Rig", "Scene", "Tracker", "TrackerOutput",
+           "analyse", "track_detections", "track_routine", "__version__"]
 
 
 def __getattr__(name: str):

@@ -1,9 +1,9 @@
-"""One routine of a batch, in a worker: the steps track, pose, eval into ``<out>/<routine>/``.
+"""One routine of a batch, in a worker: the steps track, pose, analyse, eval into ``<out>/<routine>/``.
 
 Paper: Section III (the tracker, :func:`gymtrack.tracking.track_detections`), III-D (the pose
-stage, :func:`gymtrack.pose.stage.lift_poses`) and IV-A (the metrics,
+stage, :func:`gymtrack.pose.stage.lift_poses`; the judging layer, :func:`gymtrack.analysis.analyse`) and IV-A (the metrics,
 :func:`gymtrack.eval.score.score_output`). Each step does what its command does
-(``gymtrack track``, ``gymtrack pose``, ``gymtrack eval``) and reads its inputs back from the
+(``gymtrack track``, ``gymtrack pose``, ``gymtrack analyse``, ``gymtrack eval``) and reads its inputs back from the
 files the previous step wrote, so a batch gives the files and numbers of running the commands
 one routine at a time.
 
@@ -118,6 +118,14 @@ def run_steps(routine: BatchRoutine, staging: Path, steps: tuple[str, ...], mode
         write_poses_3d(staging / "poses_3d.csv", res.poses3d)
         info["pose"] = {k: (int(v) if isinstance(v, (int, float)) and float(v).is_integer() else v)
                         for k, v in res.summary().items()}
+    if "analyse" in steps:
+        from ..analysis.folder import analyse_output, write_analysis
+
+        a = analyse_output(routine.path, staging)  # as `gymtrack analyse` reads it
+        notes = write_analysis(a, staging / "analysis")
+        info["analysis"] = {k: a.summary[f"{k}s"] for k in ("flight", "landing", "hold", "circle", "turn")}
+        if notes:
+            info["analysis"]["notes"] = notes
     if "eval" in steps:
         if r.has_gt:
             from ..eval.score import score_output
@@ -159,7 +167,7 @@ def process_routine(routine: BatchRoutine, out_root: str, steps: tuple[str, ...]
             info = run_steps(routine, staging, steps, mode, mot, fault, routine_options)
             row = {**base, "frames": info.get("frames", prev.get("frames", 0)), **info.get("metrics", {}),
                    "seconds": round(time.perf_counter() - t0, 3)}
-            saved = {**row, "steps": list(steps), "mode": mode, **{k: info[k] for k in ("pose", "note") if k in info}}
+            saved = {**row, "steps": list(steps), "mode": mode, **{k: info[k] for k in ("pose", "analysis", "note") if k in info}}
             (staging / ROW_FILE).write_text(json.dumps(saved, indent=1) + "\n")
         return row
     except Exception as exc:  # one routine's failure is its row, never the batch's

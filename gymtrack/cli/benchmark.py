@@ -89,6 +89,34 @@ def print_pose_claims(rows: list[dict]) -> list:
     return found
 
 
+def print_judging(rows: list[dict]) -> list:
+    """Judging measurements: pooled per n_cam and method, the definitions check, the targets; returns the claims."""
+    from gymtrack.eval.judging import HEADER, judging_line, judging_claims, judging_tables
+
+    t = judging_tables(rows)
+    if not t["overall"] and not t["truth"]:
+        return []
+    tab = Table(title="Judging measurements (pooled over apparatus; per apparatus in the report)", title_justify="left")
+    keep = range(8)  # flights, counts, shape, time, apex, knee, hip: the rest is in the report
+    tab.add_column("n")
+    tab.add_column("skeleton", no_wrap=True, min_width=13)
+    for col in [HEADER[i] for i in keep]:
+        tab.add_column(col)
+    for (n, m), s in sorted(t["overall"].items()):
+        line = judging_line(s)
+        tab.add_row(str(n), m, *[line[i] for i in keep])
+    if "all" in t["truth"]:
+        line = judging_line(t["truth"]["all"])
+        tab.add_row("-", "true skeleton", *[line[i] for i in keep])
+    console.print(tab)
+    for e in t["errors"]:
+        console.print(f"[red]analysis failed:[/] {e}", highlight=False)
+    found = judging_claims(rows)
+    console.print(claims_table("Judging targets (cascade+, pooled over apparatus)", found,
+                               lambda v: "-" if not np.isfinite(v) else f"{v:.3g}"))
+    return found
+
+
 @app.command()
 def benchmark(
     out: Path = typer.Option(..., "--out", "-o", help="output folder: report.md, CSV, JSON, plots"),
@@ -186,7 +214,7 @@ def benchmark(
                                    lambda v: fmt(v, "ratio") if abs(v) < 100 or not np.isfinite(v) else fmt(v, "fps")))
         found = found + plus
     if not no_pose:
-        found = found + print_pose_claims(run.rows)
+        found = found + print_pose_claims(run.rows) + print_judging(run.rows)
     failed = [r for r in run.rows if r.get("error")]
     if failed:
         console.print(f"[red]{len(failed)} runs failed[/] (listed in the report), e.g. {failed[0]['routine']} / "

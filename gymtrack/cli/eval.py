@@ -60,7 +60,35 @@ def score_table(s: dict) -> Table:
     if q is not None:
         t.add_row("target MPJPE", _f(q["mpjpe_mm"], "{:.0f} mm"), f"PA-MPJPE {_f(q['pa_mpjpe_mm'], '{:.0f} mm')}")
         t.add_row("target PCK@150 mm", _f(q["pck"], "{:.1%}"), f"pose in {_f(q['pose_share'], '{:.1%}')} of performing frames")
+    j = s.get("judging")
+    if j is not None:
+        _judging_rows(t, j)
     return t
+
+
+def _judging_rows(t: Table, j: dict) -> None:
+    """The judging scores (:func:`gymtrack.eval.score.judging_scores`) as rows of the table."""
+    e = j["elements"]
+    for kind, k in e["kinds"].items():
+        t.add_row(f"{kind}s found", f"{k['matched']} / {k['gt']}",
+                  f"recall {_f(k['recall'], '{:.0%}')}, precision {_f(k['precision'], '{:.0%}')} ({k['measured']} measured"
+                  + (f"; {e['not_analysed'][kind]} true outside the analysed frames)" if e["not_analysed"].get(kind) else ")"))
+    fl = e["flight"]
+    for name, key in (("exact saltos", "saltos_exact"), ("exact twists", "twists_exact"), ("shape right", "shape")):
+        t.add_row(name, _f(fl[key]["share"], "{:.0%}"), f"over {fl[key]['n']} matched flights")
+    t.add_row("flight-time error", _f(fl["time_err_frames"]["median"], "{:.1f} frames"),
+              f"median of starts and ends (start {_f(fl['start_err_frames']['median'], '{:.1f}')}, end "
+              f"{_f(fl['end_err_frames']['median'], '{:.1f}')})")
+    t.add_row("apex error", _f(fl["apex_err_m"]["median"], "{:.3f} m"), f"median over {fl['apex_err_m']['n']} flights")
+    h = e["hold"]
+    t.add_row("hold errors", _f(h["duration_err_s"]["median"], "{:.2f} s"),
+              f"median duration error; deviation {_f(h['deviation_err_deg']['median'], '{:.1f} deg')}")
+    t.add_row("landings stuck right", _f(e["landing"]["stuck"]["share"], "{:.0%}"), f"over {e['landing']['stuck']['n']} matched")
+    t.add_row("turn degrees right", _f(e["turn"]["degrees"]["share"], "{:.0%}"), f"over {e['turn']['degrees']['n']} matched")
+    for col, st in (j.get("angles") or {}).items():
+        unit = "m" if col == "com" else "deg"
+        t.add_row(f"{col} error", _f(st["median"], "{:.3f} m" if unit == "m" else "{:.1f} deg"),
+                  f"median; mean {_f(st['mean'], '{:.3f}' if unit == 'm' else '{:.1f}')} over {st['n']} frames")
 
 
 @app.command("eval")

@@ -4,7 +4,8 @@ Paper: the whole system of Section III in one command -- the person detector on 
 (III-A), the cascaded tracker and the target gymnast (III-B to III-D), the top-down pose model on
 the crops of ``b_buf`` and the lifted 3D pose (III-D, last paragraph). Writes into ``<out>``
 every output of ``docs/formats.md``: ``detections/`` (the detector's boxes, so ``track`` can be
-rerun), the track outputs, ``keypoints/`` and ``poses_3d.csv``; shows a progress bar per stage
+rerun), the track outputs, ``keypoints/``, ``poses_3d.csv`` and ``analysis/`` (what judges measure,
+:mod:`gymtrack.analysis`); shows a progress bar per stage
 and the time per stage.
 """
 
@@ -39,7 +40,7 @@ def run(
     calibration_format: Optional[str] = calibration_format_option(),
     units: Optional[str] = units_option(),
 ) -> None:
-    """Videos -> detections -> tracks -> 2D poses in b_buf -> 3D poses, in one command."""
+    """Videos -> detections -> tracks -> 2D poses in b_buf -> 3D poses -> judging measurements, in one command."""
     from gymtrack.errors import InputError
     from gymtrack.formats.atomic import atomic_output
     from gymtrack.pose.stage import LIFT_METHODS
@@ -62,7 +63,7 @@ def run(
 
 
 def _stages(routine: Path, out: Path, rig, scene, det, pm, mode: str, all_tracks: bool, lift: str) -> list:
-    """The four stages into ``out`` (the staging folder); returns (stage, seconds, frames) rows."""
+    """The stages into ``out`` (the staging folder); returns (stage, seconds, frames) rows."""
     from gymtrack.cli.pose import pose_summary_table
     from gymtrack.cli.track import summary_table
     from gymtrack.formats.keypoints import write_keypoints
@@ -107,4 +108,19 @@ def _stages(routine: Path, out: Path, rig, scene, det, pm, mode: str, all_tracks
     write_poses_3d(out / "poses_3d.csv", res.poses3d)
     times.append(("lift", time.perf_counter() - t0, d.frames))
     console.print(pose_summary_table(res.summary()))
+
+    from gymtrack.analysis.folder import analyse_output, write_analysis
+    from gymtrack.cli.analyse import element_table
+    from gymtrack.errors import InputError
+
+    t0 = time.perf_counter()
+    try:  # the judging layer on the target's skeleton
+        a = analyse_output(routine, out)
+    except InputError as exc:  # no target or no pose: the run's other outputs stand
+        console.print(f"no analysis/: {exc}", highlight=False)
+        return times
+    for note in write_analysis(a, out / "analysis"):
+        console.print(note, highlight=False)
+    times.append(("analyse", time.perf_counter() - t0, d.frames))
+    console.print(element_table(a))
     return times

@@ -160,6 +160,7 @@ def run_routine(spec: RoutineSpec, methods: Sequence[str], keep_trajectories: bo
         pgt = PoseGroundTruth.load(spec.path, gt, r.scene.performance_space) if pose else None
     except Exception as exc:
         pgt, base["pose_error"] = None, f"{type(exc).__name__}: {exc}"
+    jt = _judging_truth(spec, r.scene, pgt, base)
     if keep_trajectories:
         t = gt.target()
         traj["GT"] = (t.frame, t.xyz)
@@ -178,7 +179,7 @@ def run_routine(spec: RoutineSpec, methods: Sequence[str], keep_trajectories: bo
                    **evaluate_routine(res, gt, r.scene, r.rig, mot=mot),
                    "target_switches": int(res.summary.get("target_switches", 0)), "error": "", **extra}
             if pgt is not None:
-                row |= pose_columns(method, res, r.rig, r.scene, pgt, seed=spec.seed)
+                row |= pose_columns(method, res, r.rig, r.scene, pgt, seed=spec.seed, judging=jt)
             if keep_trajectories:
                 traj[method_name(method)] = (res.target.frame, res.target.xyz)
         except Exception as exc:  # one failing method must not lose the others' results
@@ -188,7 +189,23 @@ def run_routine(spec: RoutineSpec, methods: Sequence[str], keep_trajectories: bo
     add_common_columns(rows)  # the pose claims' common-frame columns: needs every method's row
     names = [method_name(m) for m in methods]
     rows.sort(key=lambda row: names.index(row["method"]))
+    if jt is not None and rows:  # the definitions check, once per routine
+        rows[0]["judge_truth_parts"] = json.dumps(jt.truth_parts())
     return {"rows": rows, "trajectories": traj if keep_trajectories else None, "spec": spec.__dict__}
+
+
+def _judging_truth(spec: RoutineSpec, scene: Scene, pgt, base: dict):
+    """The routine's :class:`~gymtrack.eval.judging.JudgingTruth` (None without gt/elements.json or
+    poses; a failure is noted in ``base["judge_error"]`` and costs nothing else)."""
+    if pgt is None:
+        return None
+    try:
+        from .judging import JudgingTruth
+
+        return JudgingTruth.load(spec.path, scene, pgt)
+    except Exception as exc:
+        base["judge_error"] = f"{type(exc).__name__}: {exc}"
+        return None
 
 
 # ----------------------------------------------------------------------------- suites
@@ -382,6 +399,7 @@ def write_benchmark(run: BenchmarkRun, out: str | Path, meta: dict | None = None
     """Write the report, tables, JSON and the Fig. 6 plots of a run under ``out`` (with the pose
     section; ``dropout``: the camera drop-out section's markdown and rows, :mod:`.dropout`, also
     written to ``dropout.csv``)."""
+    from .judging import judging_markdown
     from .pose_bench import pose_markdown, pose_tables
     from .render import plot_target_trajectories, write_csv, write_report
     from .wildtrack import wildtrack_markdown
@@ -405,7 +423,7 @@ def write_benchmark(run: BenchmarkRun, out: str | Path, meta: dict | None = None
 
     meta = {"gymtrack version": version(), "routines": len(run.specs), "parallel jobs": run.jobs, "CPUs": os.cpu_count(), "wall seconds": round(run.seconds, 1),
             **(meta or {})}
-    extra = "\n\n".join(x for x in (pose_markdown(run.rows, mvor), wildtrack_markdown(wildtrack) if wildtrack else None,
+    extra = "\n\n".join(x for x in (pose_markdown(run.rows, mvor), judging_markdown(run.rows), wildtrack_markdown(wildtrack) if wildtrack else None,
                                      dropout[0] if dropout is not None else None) if x)
     files = write_report(out, run.rows, meta, plots, extra, wildtrack)
     files["pose"] = write_csv(out / "pose_fig7.csv", pose_tables(run.rows)["fig7"])
