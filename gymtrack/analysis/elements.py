@@ -8,7 +8,7 @@ of Points judges). Rules (``shared/formats.md``) and their refinements (``docs/a
   (:data:`LIFT_M` above its planted height) and put down elsewhere, between two stationary
   phases; the slide of the landing's absorption and a pivot on the spot are not steps.
 * hold: at least 1.0 s with every joint slower than 0.1 m/s. Refined: the speed over
-  +-:data:`SPEED_HALF_S` and "slower" within two standard deviations of its noise, so a still
+  +-:data:`SPEED_HALF_S` and "slower" within three standard deviations of its noise, so a still
   body measured with 2 cm joint noise is still.
 * circle: one element per full 360 deg of somersault while both hands hold a bar, counted inside
   each run of one rotation direction (a swing's reversal starts a new run); a grip lost for up to
