@@ -95,9 +95,23 @@ class Analysis:
         """Write ``angles.csv`` and ``elements.json`` into ``folder`` (created); returns it."""
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
-        write_angles(folder / "angles.csv", self.columns)
+        write_angles(folder / "angles.csv", {k: _text(k, v) for k, v in self.columns.items()})
         write_elements(folder / "elements.json", self.elements_document())
         return folder
+
+
+def _text(name: str, v: np.ndarray) -> np.ndarray | list:
+    """A float column as the writer's text (metres 4 decimals, degrees 2, empty for NaN), formatted
+    here in one pass over Python floats (the writer's per-value numpy checks cost more)."""
+    a = np.asarray(v)
+    if name in ("frame", "track_id") or a.dtype.kind not in "fiub":
+        return a
+    if a.dtype.kind in "iub":
+        return np.array([str(int(x)) for x in a.tolist()], dtype=object)
+    fmt = "{:.0f}" if name == "twist_lines_disagree" else "{:.4f}" if name.startswith("com_") and "fallback" not in name \
+        else "{:.2f}"
+    return np.array(["" if x != x or x in (float("inf"), float("-inf")) else fmt.format(x) for x in a.tolist()],
+                    dtype=object)
 
 
 def _pick_track(poses: Poses3D, track_id: int | None) -> tuple[Poses3D, int | None]:
