@@ -25,11 +25,11 @@ from ..formats.elements import ANGLES_COLUMNS, SUPPORT_NAMES, validate_elements,
 from ..poses import Poses3D
 from ..scene import Scene
 from . import elements as E
-from .filtering import CUTOFF_HZ, filter_joints, segments
+from .filtering import CUTOFF_HZ, segments
 from .flights import find_flights, flight_elements
 from .joints import NEEDS, USED, gather, body_height
 from .rotation import heading
-from .support import NONE, foot_contact, foot_height, scene_geometry, support as support_codes
+from .support import foot_height, scene_geometry, support as support_codes
 from .uncertainty import SAMPLES, measure_samples
 
 __all__ = ["Analysis", "analyse"]
@@ -213,7 +213,7 @@ def analyse(poses3d: Poses3D, scene: Scene, track_id: int | None = None, *, fps:
     if "circle" not in miss and "somersault" not in miss:
         els += E.circles(frame, cols["somersault"][0], grip, fps)
     com0 = np.column_stack([cols["com_x"][0], cols["com_y"][0], cols["com_z"][0]])
-    els += E.turns(frame, Xf, heading(Xf), sup, cols["inclination"][0], foot_contact(Xf, geo, height), com0, fps)
+    els += E.turns(frame, heading(Xf), sup, cols["inclination"][0], com0, fps)
     els.sort(key=lambda e: (e.get("start_frame", e.get("frame")), e["kind"]))
     columns = _columns(J, sup, cols, raw)
     summary = {"rows": len(frame) + skipped, "rows_without_joints": skipped, "body_height_m": round(height, 3),

@@ -27,7 +27,6 @@ import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
 from .flights import runs
-from .joints import I
 from .support import ANKLES, NONE
 
 STEP_M, LIFT_M, LANDING_S = 0.10, 0.05, 2.0
@@ -185,8 +184,8 @@ def merge(spans: list[tuple[int, int]], gap: int) -> list[tuple[int, int]]:
     return [(p, q) for p, q in out]
 
 
-def turns(frame: np.ndarray, X: np.ndarray, heading: np.ndarray, support: np.ndarray, incl: np.ndarray,
-          feet_on: np.ndarray, com: np.ndarray, fps: float) -> list[dict]:
+def turns(frame: np.ndarray, heading: np.ndarray, support: np.ndarray, incl: np.ndarray, com: np.ndarray,
+          fps: float) -> list[dict]:
     """Turn (pivot) records from the heading (radians, (M,)) on support while upright."""
     out = []
     ok = (support != NONE) & np.isfinite(heading) & (np.nan_to_num(incl, nan=180) < 45)
