@@ -92,13 +92,18 @@ def print_judging(rows: list[dict]) -> list:
     t = judging_tables(rows)
     if not t["overall"] and not t["truth"]:
         return []
-    tab = Table(title="Judging measurements (pooled over apparatus)", title_justify="left")
-    for col in ["n_cam", "skeleton"] + HEADER:
+    tab = Table(title="Judging measurements (pooled over apparatus; per apparatus in the report)", title_justify="left")
+    keep = range(8)  # flights, counts, shape, time, apex, knee, hip: the rest is in the report
+    tab.add_column("n")
+    tab.add_column("skeleton", no_wrap=True, min_width=13)
+    for col in [HEADER[i] for i in keep]:
         tab.add_column(col)
     for (n, m), s in sorted(t["overall"].items()):
-        tab.add_row(str(n), m, *judging_line(s))
+        line = judging_line(s)
+        tab.add_row(str(n), m, *[line[i] for i in keep])
     if "all" in t["truth"]:
-        tab.add_row("-", "ground truth", *judging_line(t["truth"]["all"]))
+        line = judging_line(t["truth"]["all"])
+        tab.add_row("-", "true skeleton", *[line[i] for i in keep])
     console.print(tab)
     for e in t["errors"]:
         console.print(f"[red]analysis failed:[/] {e}", highlight=False)

@@ -13,10 +13,10 @@ simulated pose model on the method's boxes) is analysed the same way and scored
 (:mod:`gymtrack.eval.elements`). The analysis runs without Monte Carlo samples (the scored
 measures are the measurement itself; the uncertainties are not scored).
 
-Rows: a method's benchmark row gains ``judge_parts`` (JSON: its element parts and its angle errors
-as histograms: 0.1 deg bins below 20 deg, then 0.5 deg to 60, then 2 deg, so pooled medians are
-exact to a bin); the routine's first judged row also carries ``judge_truth_parts`` (the
-definitions check). :func:`judging_tables`, :func:`judging_claims` and :func:`judging_markdown`
+Rows: a method's benchmark row gains ``judge_parts`` (JSON: its element parts and its angle errors,
+the knees' and hips' (:data:`BINNED`) as histograms -- exact zeros, 0.1 deg bins below 20 deg, then
+0.5 deg to 60, then 2 deg, so pooled medians are exact to a bin -- the other columns' sums and
+counts); the routine's first judged row also carries ``judge_truth_parts`` (the definitions check). :func:`judging_tables`, :func:`judging_claims` and :func:`judging_markdown`
 pool them.
 """
 
@@ -41,8 +41,10 @@ __all__ = ["JUDGE_METHODS", "JudgingTruth", "truth_poses", "judging_columns", "j
 
 JUDGE_METHODS: tuple[str, ...] = ("cascade+", "cascade", "triangulation", "oracle")
 TRUTH = "ground-truth skeleton"
-_EDGES = np.concatenate([np.arange(0.0, 20.0, 0.1), np.arange(20.0, 60.0, 0.5), np.arange(60.0, 182.0, 2.0)])
-_MIDS = 0.5 * (_EDGES[1:] + _EDGES[:-1])
+#: angle columns whose pooled median the report shows (the targets'); the others keep a mean only
+BINNED: tuple[str, ...] = ("left_knee", "right_knee", "left_hip", "right_hip")
+_EDGES = np.concatenate([[0.0, 1e-9], np.arange(0.1, 20.0, 0.1), np.arange(20.0, 60.0, 0.5), np.arange(60.0, 182.0, 2.0)])
+_MIDS = np.concatenate([[0.0], 0.5 * (_EDGES[2:] + _EDGES[1:-1])])  # the first bin: exact zeros (the definitions check)
 
 
 def truth_poses(frames: np.ndarray, joints: np.ndarray, track_id: int):
@@ -107,7 +109,7 @@ class JudgingTruth:
     def score(self, doc: dict, columns: dict) -> dict:
         """JSON-ready parts of one measurement: ``elements`` (:func:`element_parts`) and ``angles`` (histograms)."""
         parts = element_parts(doc, self.elements, frames=columns["frame"], true_com_z=self.com_z)
-        return {"elements": parts, "angles": angle_histograms(angle_parts(columns, self.angles))}
+        return {"elements": parts, "angles": angle_histograms(angle_parts(columns, self.angles), BINNED)}
 
     def truth_parts(self) -> dict:
         """The definitions check: the analysis of the true skeleton scored against the ground truth."""
@@ -126,14 +128,17 @@ def judging_columns(method: str, poses3d, scene, jt: JudgingTruth | None) -> dic
 
 
 # ----------------------------------------------------------------------------- angle histograms
-def angle_histograms(errors: dict[str, list[float]]) -> dict[str, dict]:
-    """Per column ``{"sum", "n", "bins": {index: count}}`` of absolute errors (deg; ``com`` in cm)."""
+def angle_histograms(errors: dict[str, list[float]], binned: Sequence[str] | None = None) -> dict[str, dict]:
+    """Per column ``{"sum", "n", "bins": {index: count}}`` of absolute errors (deg; ``com`` in cm);
+    ``binned``: the columns that keep their bins (the others only sum and count: a mean, no median)."""
     out = {}
     for c, v in errors.items():
         a = np.asarray(v, float)
         a = a[np.isfinite(a)] * (100.0 if c == "com" else 1.0)
-        idx, cnt = np.unique(np.clip(np.searchsorted(_EDGES, a, side="right") - 1, 0, _MIDS.size - 1), return_counts=True)
-        out[c] = {"sum": float(a.sum()), "n": int(a.size), "bins": {str(int(i)): int(k) for i, k in zip(idx, cnt)}}
+        out[c] = {"sum": float(a.sum()), "n": int(a.size)}
+        if binned is None or c in binned:
+            idx, cnt = np.unique(np.clip(np.searchsorted(_EDGES, a, side="right") - 1, 0, _MIDS.size - 1), return_counts=True)
+            out[c]["bins"] = {str(int(i)): int(k) for i, k in zip(idx, cnt)}
     return out
 
 
@@ -142,11 +147,14 @@ def histogram_stats(hists: Sequence[dict]) -> dict[str, float | int]:
     n = sum(h["n"] for h in hists)
     if n == 0:
         return {"median": float("nan"), "mean": float("nan"), "n": 0}
+    mean = sum(h["sum"] for h in hists) / n
+    if not all("bins" in h for h in hists):
+        return {"median": float("nan"), "mean": mean, "n": n}
     counts = np.zeros(_MIDS.size, np.int64)
     for h in hists:
         for i, k in h["bins"].items():
             counts[int(i)] += k
-    return {"median": float(np.median(np.repeat(_MIDS, counts))), "mean": sum(h["sum"] for h in hists) / n, "n": n}
+    return {"median": float(np.median(np.repeat(_MIDS, counts))), "mean": mean, "n": n}
 
 
 # ----------------------------------------------------------------------------- pooling
@@ -292,7 +300,8 @@ def judging_markdown(rows: Sequence[dict], config: BenchmarkConfig = DEFAULT_CON
     if t["truth"]:
         parts += ["**Definitions check: the analysis of the ground-truth skeleton itself** (must be perfect: 100 % recall, "
                   "precision and shares, zero errors)", ""]
-        body = [[ABBREVIATIONS.get(a, a) if a != "all" else "**all**"] + judging_line(s) for a, s in t["truth"].items()]
+        order = [a for a in APPARATUS_NAMES if a in t["truth"]] + sorted(set(t["truth"]) - set(APPARATUS_NAMES) - {"all"}) + ["all"]
+        body = [[ABBREVIATIONS.get(a, a) if a != "all" else "**all**"] + judging_line(t["truth"][a]) for a in order if a in t["truth"]]
         parts += [markdown_table(["app."] + HEADER, body), ""]
     claims = judging_claims(rows, config)
     parts += ["**Judging targets of the issue** (cascade+, the default mode, pooled over apparatus)", "",

@@ -28,8 +28,10 @@ simulator's exact state, never to a measured skeleton:
 - circle: a run of giants on one grip in one direction, one element per full 360 deg of
   somersault from the run's start (less :data:`FULL_TURN_TOL_DEG`: a giant from handstand to
   handstand, sampled, stops a degree or two short).
-- turn: a pivot (beam) or a turn on the spot while standing, of at least 90 deg (less 5 deg:
-  :data:`MIN_TURN_DEG`), rounded to 90.
+- turn: a turn on support and on the spot, of at least 90 deg (less 5 deg: :data:`MIN_TURN_DEG`),
+  rounded to 90: a pivot (beam), a turn standing (to face the judges, the apparatus), and the
+  heading's turn as a walk sets off when the body moves under 0.5 m while turning and 0.3 s after
+  (a slow walk back along the beam; walking round a corner is no turn element).
 """
 
 from __future__ import annotations

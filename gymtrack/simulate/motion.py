@@ -230,6 +230,9 @@ class MotionBuilder(GripPhases):
         xy_t = start[None] + s[:, None] * u[None] + sway[:, None] * side[None]
         tw = np.full(n, self.twist)
         c = self.body.centre_on_feet(xy_t, support_z, a, yaw, pitch, tw)
+        k = int(min(np.searchsorted(t, 0.5), n - 1))  # the heading turns in the first 0.5 s
+        if np.linalg.norm(xy_t[:min(k + self.frames_for(0.3), n - 1) + 1] - start, axis=1).max() < 0.5:
+            self.record("turn", self.n, self.n + k, degrees=float(np.degrees(yaw[k] - self.yaw)))  # on the spot (a slow beam walk)
         self.append(c, yaw, pitch, tw, a, B.RUN if run else B.WALK, phase)
 
     def turn(self, yaw_delta: float, seconds: float, support_z: float, posture: int = B.TURN, phase: int = SKILL) -> None:
