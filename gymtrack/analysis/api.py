@@ -25,11 +25,11 @@ from ..formats.elements import ANGLES_COLUMNS, SUPPORT_NAMES, validate_elements,
 from ..poses import Poses3D
 from ..scene import Scene
 from . import elements as E
-from .filtering import CUTOFF_HZ, filter_joints, segments
+from .filtering import CUTOFF_HZ, segments
 from .flights import find_flights, flight_elements
 from .joints import NEEDS, USED, gather, body_height
 from .rotation import heading
-from .support import NONE, foot_contact, foot_height, scene_geometry, support as support_codes
+from .support import foot_height, scene_geometry, support as support_codes
 from .uncertainty import SAMPLES, measure_samples
 
 __all__ = ["Analysis", "analyse"]
@@ -95,9 +95,23 @@ class Analysis:
         """Write ``angles.csv`` and ``elements.json`` into ``folder`` (created); returns it."""
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
-        write_angles(folder / "angles.csv", self.columns)
+        write_angles(folder / "angles.csv", {k: _text(k, v) for k, v in self.columns.items()})
         write_elements(folder / "elements.json", self.elements_document())
         return folder
+
+
+def _text(name: str, v: np.ndarray) -> np.ndarray | list:
+    """A float column as the writer's text (metres 4 decimals, degrees 2, empty for NaN), formatted
+    here in one pass over Python floats (the writer's per-value numpy checks cost more)."""
+    a = np.asarray(v)
+    if name in ("frame", "track_id") or a.dtype.kind not in "fiub":
+        return a
+    if a.dtype.kind in "iub":
+        return np.array([str(int(x)) for x in a.tolist()], dtype=object)
+    fmt = "{:.0f}" if name == "twist_lines_disagree" else "{:.4f}" if name.startswith("com_") and "fallback" not in name \
+        else "{:.2f}"
+    return np.array(["" if x != x or x in (float("inf"), float("-inf")) else fmt.format(x) for x in a.tolist()],
+                    dtype=object)
 
 
 def _pick_track(poses: Poses3D, track_id: int | None) -> tuple[Poses3D, int | None]:
@@ -199,7 +213,7 @@ def analyse(poses3d: Poses3D, scene: Scene, track_id: int | None = None, *, fps:
     if "circle" not in miss and "somersault" not in miss:
         els += E.circles(frame, cols["somersault"][0], grip, fps)
     com0 = np.column_stack([cols["com_x"][0], cols["com_y"][0], cols["com_z"][0]])
-    els += E.turns(frame, Xf, heading(Xf), sup, cols["inclination"][0], foot_contact(Xf, geo, height), com0, fps)
+    els += E.turns(frame, heading(Xf), sup, cols["inclination"][0], com0, fps)
     els.sort(key=lambda e: (e.get("start_frame", e.get("frame")), e["kind"]))
     columns = _columns(J, sup, cols, raw)
     summary = {"rows": len(frame) + skipped, "rows_without_joints": skipped, "body_height_m": round(height, 3),

@@ -8,7 +8,7 @@ of Points judges). Rules (``shared/formats.md``) and their refinements (``docs/a
   (:data:`LIFT_M` above its planted height) and put down elsewhere, between two stationary
   phases; the slide of the landing's absorption and a pivot on the spot are not steps.
 * hold: at least 1.0 s with every joint slower than 0.1 m/s. Refined: the speed over
-  +-:data:`SPEED_HALF_S` and "slower" within two standard deviations of its noise, so a still
+  +-:data:`SPEED_HALF_S` and "slower" within three standard deviations of its noise, so a still
   body measured with 2 cm joint noise is still.
 * circle: one element per full 360 deg of somersault while both hands hold a bar, counted inside
   each run of one rotation direction (a swing's reversal starts a new run); a grip lost for up to
@@ -27,7 +27,6 @@ import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
 from .flights import runs
-from .joints import I
 from .support import ANKLES, NONE
 
 STEP_M, LIFT_M, LANDING_S = 0.10, 0.05, 2.0
@@ -185,8 +184,8 @@ def merge(spans: list[tuple[int, int]], gap: int) -> list[tuple[int, int]]:
     return [(p, q) for p, q in out]
 
 
-def turns(frame: np.ndarray, X: np.ndarray, heading: np.ndarray, support: np.ndarray, incl: np.ndarray,
-          feet_on: np.ndarray, com: np.ndarray, fps: float) -> list[dict]:
+def turns(frame: np.ndarray, heading: np.ndarray, support: np.ndarray, incl: np.ndarray, com: np.ndarray,
+          fps: float) -> list[dict]:
     """Turn (pivot) records from the heading (radians, (M,)) on support while upright."""
     out = []
     ok = (support != NONE) & np.isfinite(heading) & (np.nan_to_num(incl, nan=180) < 45)

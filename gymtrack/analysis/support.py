@@ -191,15 +191,6 @@ def _still(z: np.ndarray, frame: np.ndarray, fps: float) -> np.ndarray:
         return np.nan_to_num(np.fmin(back, fwd), nan=np.inf) < TOE_STILL
 
 
-def foot_contact(X: np.ndarray, geo: Geometry, height: float) -> np.ndarray:
-    """(M, 2) bool: the left / right foot (ankle from the sole) touches the floor or the apparatus."""
-    sole = SOLE * height if np.isfinite(height) else 0.0
-    A = X[:, list(ANKLES)]
-    with np.errstate(invalid="ignore"):
-        d = np.minimum(A[..., 2], apparatus_distance(A, geo)) - sole
-    return np.nan_to_num(d, nan=np.inf) < TOUCH
-
-
 def foot_height(X: np.ndarray, height: float) -> np.ndarray:
     """(M, 2) each foot's sole height above the floor (m): the ankle's z minus the sole."""
     return X[:, list(ANKLES), 2] - (SOLE * height if np.isfinite(height) else 0.0)

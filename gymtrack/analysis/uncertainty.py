@@ -9,7 +9,7 @@ measurement. A measure's sd is the samples' spread -- exact for the non-linear a
 180 deg where a first-order Jacobian fails. Element measures are taken on every sample with the
 element's frames fixed by the measurement (:mod:`.flights`, :mod:`.elements`).
 
-Vectorised over samples x frames x joints; samples go in chunks of :data:`CHUNK` to bound memory.
+Vectorised over samples x frames x joints; samples go in chunks of :data:`CHUNK_VALUES` coordinates to bound memory.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from .kinematics import centre_of_mass, frame_angles
 from .rotation import raw_rotation, unwrap
 
 SAMPLES = 32
-CHUNK = 8
+CHUNK_VALUES = 4_000_000  #: joint coordinates per chunk of samples (about 32 MB of float64 per array)
 MEASURES = ("com_x", "com_y", "com_z", "left_knee", "right_knee", "left_hip", "right_hip", "left_elbow", "right_elbow",
             "left_shoulder", "right_shoulder", "split", "inclination", "somersault", "twist")
 
@@ -53,8 +53,9 @@ def measure_samples(J, segs, fps: float, cutoff_hz, normal, body: str, samples: 
     Xf0 = None
     valid = None
     done = 0
+    chunk = max(1, CHUNK_VALUES // max(J.X.size, 1))
     while done < 1 + samples:
-        n = min(CHUNK, 1 + samples - done)
+        n = min(chunk, 1 + samples - done)
         X = np.repeat(J.X[None], n, axis=0)
         k0 = 0
         if done == 0:  # row 0: the measurement itself
