@@ -200,7 +200,6 @@ def turns(frame: np.ndarray, heading: np.ndarray, support: np.ndarray, incl: np.
             delta = hd[q] - hd[p]
             if abs(delta) < TURN_MIN_DEG:
                 continue
-            seg = slice(a + p, a + q + 1)
             after = np.flatnonzero((frame >= frame[a + p]) & (frame <= frame[a + q] + TURN_AFTER_S * fps))
             travel = np.linalg.norm(com[after[-1], :2] - com[a + p, :2])  # walking on after turning is no turn
             if not travel <= TURN_TRAVEL_M:
