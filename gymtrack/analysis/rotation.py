@@ -14,7 +14,9 @@ handstand and every horizontal pose. So:
 
 A tuck folds the shoulder line towards the hips, so where the trunk is folded (a hip angle under
 :data:`FOLDED_HIP`) the twist is the pelvis line's alone; elsewhere the mean of the shoulder and
-pelvis lines. Frames where the two lines disagree by more than :data:`DISAGREE` are flagged.
+pelvis lines. Frames where the two lines disagree by more than :data:`DISAGREE` (as axes) are
+flagged, and not read: :func:`unwrap_axial` bridges them, unwrapping the twist as a line's angle
+so that a left/right swap of the pose estimate cannot add half twists (``docs/analysis.md``).
 Frames within :data:`LOCK` of the singular pose are NaN and bridged when unwrapping.
 """
 
@@ -58,9 +60,11 @@ def raw_rotation(X: np.ndarray, normal: np.ndarray, min_hip: np.ndarray) -> dict
     sh = X[..., I["left_shoulder"], :] - X[..., I["right_shoulder"], :]
     pe = X[..., I["left_hip"], :] - X[..., I["right_hip"], :]
     t_sh, t_pe = _about(L, ref, sh), _about(L, ref, pe)
-    gap = np.angle(np.exp(1j * (t_sh - t_pe)))
+    # the lines' difference as axes (in [-90, 90] deg): a left/right swap of the legs alone turns the
+    # pelvis line by 180 deg and leaves it the same axis
+    gap = 0.5 * np.angle(np.exp(2j * (t_sh - t_pe)))
     pelvis = np.nan_to_num(min_hip, nan=180.0) < FOLDED_HIP
-    both = t_pe + 0.5 * gap  # circular mean of the two lines
+    both = t_pe + 0.5 * gap  # the two lines' mean axis
     tw = np.where(pelvis | ~np.isfinite(t_sh), t_pe, np.where(np.isfinite(t_pe), both, t_sh))
     with np.errstate(invalid="ignore"):
         locked = np.abs(L @ n) > np.cos(np.radians(LOCK))
@@ -87,6 +91,38 @@ def unwrap(angle: np.ndarray, valid: np.ndarray) -> np.ndarray:
         a = _ffill(a)
     u = np.unwrap(a, axis=-1)
     out[..., idx] = u - u[..., :1]
+    return out
+
+
+def unwrap_axial(angle: np.ndarray, trusted: np.ndarray) -> np.ndarray:
+    """Unwrap the angle (..., M) of a *line* (an axis: theta and theta + 180 deg are one line) over
+    the ``trusted`` (M,) frames: 2 theta unwrapped, halved. A left/right swap of the pose estimate
+    turns the left-right line by 180 deg and leaves it the same axis, so swaps cannot add or take
+    away half turns; a true turn of under 90 deg between trusted frames (7.5 rev/s at 30 fps) unwraps
+    as it does on the vector. The other frames (untrusted, or NaN in a sample) take the value
+    interpolated between their trusted neighbours. Radians, relative to the first trusted frame."""
+    out = np.full(angle.shape, np.nan)
+    idx = np.flatnonzero(trusted)
+    if idx.size == 0:
+        return out
+    if idx.size == 1:
+        out[..., idx] = 0.0
+        return out
+    a = angle[..., idx]
+    a = np.where(np.isfinite(a), a, np.nan)
+    if np.isnan(a).any():
+        a = _ffill(a)
+    u = 0.5 * np.unwrap(2.0 * a, axis=-1)
+    u = u - u[..., :1]
+    lo, hi = idx[0], idx[-1]
+    span = np.arange(lo, hi + 1)
+    if idx.size == span.size:
+        out[..., span] = u
+        return out
+    # linear interpolation between trusted frames, vectorised over the leading (sample) axes
+    k = np.clip(np.searchsorted(idx, span, side="right") - 1, 0, idx.size - 2)
+    w = (span - idx[k]) / np.maximum(idx[k + 1] - idx[k], 1)
+    out[..., span] = u[..., k] * (1 - w) + u[..., k + 1] * w
     return out
 
 

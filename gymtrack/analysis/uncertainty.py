@@ -18,7 +18,7 @@ import numpy as np
 
 from .filtering import filter_joints
 from .kinematics import centre_of_mass, frame_angles
-from .rotation import raw_rotation, unwrap
+from .rotation import raw_rotation, unwrap, unwrap_axial
 
 SAMPLES = 32
 CHUNK_VALUES = 4_000_000  #: joint coordinates per chunk of samples (about 32 MB of float64 per array)
@@ -67,14 +67,17 @@ def measure_samples(J, segs, fps: float, cutoff_hz, normal, body: str, samples: 
         if done == 0:
             Xf0 = X[0]
             raw = {"com_fallback": pf["com_fallback"][0], "pelvis": pf["pelvis"][0], "disagree": pf["disagree"][0]}
-            valid_s, valid_t = np.isfinite(pf["somersault"][0]), np.isfinite(pf["twist"][0])
+            valid_s = np.isfinite(pf["somersault"][0])
+            # the twist is read where the shoulder and pelvis lines agree: a frame where they do not
+            # has at least one line wrong (pose noise, a part-swapped pose), folded trunk or not
+            valid_t = np.isfinite(pf["twist"][0]) & ~pf["disagree"][0]
             valid = (valid_s, valid_t)
         for m in MEASURES:
             v = pf[m]
             if m == "somersault":
                 v = np.degrees(unwrap(v, valid[0]))
             elif m == "twist":
-                v = np.degrees(unwrap(v, valid[1]))
+                v = np.degrees(unwrap_axial(v, valid[1]))
             cols[m][done:done + n] = v
         done += n
     return cols, raw, Xf0
