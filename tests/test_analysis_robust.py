@@ -104,3 +104,64 @@ def test_frames_whose_lines_disagree_are_not_read(twisting_double):
     assert a["twist_lines_disagree"][rows].all()
     f = a.flights[0]
     assert (f["saltos"], f["twists"]) == (2.0, 1.0)
+
+
+# ------------------------------------------------------------------ flights on measured-like heights
+def _heights(n1=10, gap=2, n2=10, fps=30.0, bounce=False, seed=0):
+    """A ballistic centre of mass (v0 4 m/s) with a short 'contact' of ``gap`` rows inside; ``bounce``:
+    the contact reverses the fall (a springboard)."""
+    n = n1 + gap + n2
+    t = np.arange(n) / fps
+    z = 1.0 + 4.0 * t - 9.81 / 2 * t ** 2
+    if bounce:
+        tb = t[n1 + gap // 2]
+        zb = 1.0 + 4.0 * tb - 9.81 / 2 * tb ** 2
+        after = t > tb
+        z[after] = zb + 3.0 * (t[after] - tb) - 9.81 / 2 * (t[after] - tb) ** 2
+    z += np.random.default_rng(seed).normal(0, 0.01, n)
+    sup = np.zeros(n, np.int8)
+    sup[n1:n1 + gap] = 2
+    return np.arange(n), sup, z, np.full(n, 0.01)
+
+
+def test_a_contact_that_leaves_the_parabola_unbroken_is_bridged():
+    from gymtrack.analysis.flights import bridge_contacts, find_flights
+
+    frame, sup, z, sd = _heights()
+    out, n = bridge_contacts(frame, sup, 30.0, z, sd)
+    assert n == 1 and (out == 0).all()
+    fl, _ = find_flights(frame, out, 30.0, z, z, sd)
+    assert fl == [(0, len(frame) - 1)]
+    # a springboard's contact changes the vertical speed: two flights stay two
+    frame, sup, z, sd = _heights(gap=3, bounce=True)
+    out, n = bridge_contacts(frame, sup, 30.0, z, sd)
+    assert n == 0 and (out == sup).all()
+
+
+def test_an_airborne_run_whose_take_off_and_landing_are_unseen_is_no_flight():
+    from gymtrack.analysis.flights import find_flights
+
+    frame, sup, z, sd = _heights(gap=0)
+    com = np.column_stack([np.zeros_like(z), np.zeros_like(z), z])
+    sup = sup.copy()
+    sup[[0, -1]] = 1  # standing before and after: a flight
+    fl, _ = find_flights(frame, sup, 30.0, z, z, sd, com)
+    assert fl == [(1, len(frame) - 2)]
+    far = com.copy()
+    far[1:-1, 0] += 9.0  # the airborne rows are someone 9 m away (a lost track)
+    fl, lifted = find_flights(frame, sup, 30.0, z, z, sd, far)
+    assert fl == [] and lifted == [(1, len(frame) - 2)]
+
+
+def test_a_badly_measured_row_weighs_little_in_the_ballistic_fit():
+    from gymtrack.analysis.flights import fall_rate
+
+    t = np.arange(10) / 30.0
+    z = 1.0 + 3.0 * t - 9.81 / 2 * t ** 2
+    z[0] -= 0.3  # one row measured 30 cm low (one view, a high reprojection error)
+    sd = np.full(10, 0.01)
+    sd[0] = 0.3
+    a_plain, _ = fall_rate(t, z, 0.01)
+    a_w, a_sd = fall_rate(t, z, sd)
+    assert abs(a_plain + 9.81) > 0.5 * 9.81  # the bad row bends the plain fit out of the ballistic band
+    assert abs(a_w + 9.81) < 3 * a_sd + 0.5

@@ -26,8 +26,9 @@ from ..poses import Poses3D
 from ..scene import Scene
 from . import elements as E
 from .filtering import CUTOFF_HZ, segments
-from .flights import find_flights, flight_elements
+from .flights import bridge_contacts, find_flights, flight_elements
 from .joints import NEEDS, USED, gather, body_height
+from .kinematics import com_sd
 from .rotation import heading
 from .support import foot_height, scene_geometry, support as support_codes
 from .uncertainty import SAMPLES, measure_samples
@@ -201,9 +202,10 @@ def analyse(poses3d: Poses3D, scene: Scene, track_id: int | None = None, *, fps:
     frame = J.frame
     els = []
     box_z = 0.5 * (np.nanmax(Xf[..., 2], axis=1) + np.nanmin(Xf[..., 2], axis=1))
-    # the heights' sd: the joints' mean sigma over the ~sqrt(8) independent segments the centre averages
-    sigma_z = np.nanmean(J.sigma, axis=1) / np.sqrt(8)
-    fl, lifted = find_flights(frame, sup, fps, cols["com_z"][0], box_z, sigma_z)
+    sigma_z = com_sd(J.sigma, body)  # the centre of mass' height sd, from each joint's
+    com0 = np.column_stack([cols["com_x"][0], cols["com_y"][0], cols["com_z"][0]])
+    sup, bridged = bridge_contacts(frame, sup, fps, cols["com_z"][0], sigma_z)
+    fl, lifted = find_flights(frame, sup, fps, cols["com_z"][0], box_z, sigma_z, com0)
     fels = flight_elements(frame, cols, sup, fps, fl)
     land_rows = [e.pop("_landing_row") for e in fels if "_landing_row" in e]
     els += fels
@@ -212,14 +214,14 @@ def analyse(poses3d: Poses3D, scene: Scene, track_id: int | None = None, *, fps:
     els += E.holds(frame, Xf, J.sigma, cols["inclination"], fps)
     if "circle" not in miss and "somersault" not in miss:
         els += E.circles(frame, cols["somersault"][0], grip, fps)
-    com0 = np.column_stack([cols["com_x"][0], cols["com_y"][0], cols["com_z"][0]])
     els += E.turns(frame, heading(Xf), sup, cols["inclination"][0], com0, fps)
     els.sort(key=lambda e: (e.get("start_frame", e.get("frame")), e["kind"]))
     columns = _columns(J, sup, cols, raw)
     summary = {"rows": len(frame) + skipped, "rows_without_joints": skipped, "body_height_m": round(height, 3),
                "com_fallback_frames": int(np.sum(columns["com_fallback"])),
                "twist_disagree_frames": int(np.nansum(columns["twist_lines_disagree"])),
-               "samples": samples, "airborne_runs_not_ballistic": len(lifted), **{f"{k}s": sum(e["kind"] == k for e in els) for k in
+               "samples": samples, "airborne_runs_not_ballistic": len(lifted),
+               "contacts_bridged": bridged, **{f"{k}s": sum(e["kind"] == k for e in els) for k in
                                       ("flight", "landing", "hold", "circle", "turn")}}
     if skipped:
         warnings.warn(f"{skipped} pose rows have none of the joints the analysis reads; left out", GymtrackWarning,

@@ -25,6 +25,9 @@ BALLISTIC = 0.5  #: a flight's fitted vertical acceleration lies within this sha
 WINDOW_S = 1.5
 UPRIGHT_TOL = 10.0  #: degrees (the simulator's ground truth uses the same)
 SHAPE_CLOSED, SHAPE_OPEN = 90.0, 135.0
+CONTACT_MAX_S = 0.1  #: s: a contact this short between airborne runs is bridged if it changed nothing
+V_MAX = 12.0  #: m/s: the centre of mass moves no faster (a sprinter's top speed; a vault's run-up reaches 8-9)
+PARABOLA_CHI = 2.0  #: the centre of mass' weighted rms residual (in sd) within which one parabola holds
 
 
 def runs(mask: np.ndarray, frame: np.ndarray, max_gap: int = 2) -> list[tuple[int, int]]:
@@ -37,32 +40,84 @@ def runs(mask: np.ndarray, frame: np.ndarray, max_gap: int = 2) -> list[tuple[in
     return list(zip(np.flatnonzero(start).tolist(), np.flatnonzero(end).tolist()))
 
 
-def fall_rate(t: np.ndarray, z: np.ndarray, sigma: float = 0.0) -> tuple[float, float]:
-    """The vertical acceleration (m/s^2) of a free quadratic fitted to z(t) and its sd for heights
-    known to ``sigma`` (m); NaN under 4 points."""
-    ok = np.isfinite(z)
+def fall_rate(t: np.ndarray, z: np.ndarray, sigma: float | np.ndarray = 0.0) -> tuple[float, float]:
+    """The vertical acceleration (m/s^2) of a free quadratic fitted to z(t) and its sd, for heights
+    known to ``sigma`` (m; a scalar, or (n,) per row: then the fit is weighted by 1 / sigma^2, so
+    a row the pose stage measured badly -- one view, a high reprojection error -- counts little);
+    NaN under 4 points."""
+    sig = np.broadcast_to(np.asarray(sigma, float), z.shape)
+    ok = np.isfinite(z) & np.isfinite(sig)
     if ok.sum() < 4:
         return float("nan"), float("nan")
     tt = t[ok] - t[ok].mean()
     A = np.column_stack([np.ones(tt.size), tt, tt ** 2])
+    s = sig[ok]
+    if np.all(s > 0):
+        w = 1.0 / s
+        coef, *_ = np.linalg.lstsq(A * w[:, None], z[ok] * w, rcond=None)
+        cov = np.linalg.pinv((A * w[:, None] ** 2).T @ A)
+        return float(2 * coef[2]), float(2 * np.sqrt(cov[2, 2]))
     coef, *_ = np.linalg.lstsq(A, z[ok], rcond=None)
     cov = np.linalg.pinv(A.T @ A)
-    return float(2 * coef[2]), float(2 * sigma * np.sqrt(cov[2, 2]))
+    return float(2 * coef[2]), float(2 * float(np.nanmax(s, initial=0.0)) * np.sqrt(cov[2, 2]))
+
+
+def bridge_contacts(frame: np.ndarray, support: np.ndarray, fps: float, com_z: np.ndarray,
+                    sigma_z: np.ndarray) -> tuple[np.ndarray, int]:
+    """(support with the bridged rows set to NONE, how many contacts were bridged).
+
+    A contact of at most :data:`CONTACT_MAX_S` between two airborne runs through which the centre of
+    mass stays on one parabola with g = 9.81 (weighted rms of the normalised residuals at most
+    :data:`PARABOLA_CHI`) changed nothing: a support pushes or stops the body, so this is a joint
+    measured near a surface the body flew past (a hand rising past the parallel bars' rail)."""
+    out = support.copy()
+    air = runs(support == NONE, frame)
+    n = 0
+    most = int(round(CONTACT_MAX_S * fps))
+    for (a1, b1), (a2, b2) in zip(air[:-1], air[1:]):
+        short = min(frame[b1] - frame[a1], frame[b2] - frame[a2]) + 1 < MIN_FLIGHT_S * fps - 1e-9
+        if short or a2 - b1 - 1 > most or np.any(np.diff(frame[b1:a2 + 1]) > 2):
+            continue
+        t, z, s = frame[a1:b2 + 1] / fps, com_z[a1:b2 + 1], sigma_z[a1:b2 + 1]
+        ok = np.isfinite(z) & np.isfinite(s) & (s > 0)
+        if ok.sum() < 6:
+            continue
+        fit = parabola(t[ok] - t[ok][0], z[ok], 1.0 / s[ok])
+        if fit is not None and fit[2] <= PARABOLA_CHI:
+            out[b1 + 1:a2] = NONE
+            n += 1
+    return out, n
+
+
+def _seen(frame, com, fps, i, j) -> bool:
+    """Row i (supported, next to the airborne row j) is the same body's take-off or landing: within
+    MAX_GAP frames of it and within the reach of the fastest run (:data:`V_MAX`)."""
+    if not (0 <= i < len(frame)) or abs(frame[i] - frame[j]) > 2:
+        return False
+    d = np.linalg.norm(com[i] - com[j])
+    return bool(np.isfinite(d) and d <= V_MAX * abs(frame[i] - frame[j]) / fps)
 
 
 def find_flights(frame: np.ndarray, support: np.ndarray, fps: float, com_z: np.ndarray, box_z: np.ndarray,
-                 sigma_z: np.ndarray | None = None) -> tuple[list[tuple[int, int]], list[tuple[int, int]]]:
+                 sigma_z: np.ndarray | None = None, com: np.ndarray | None = None
+                 ) -> tuple[list[tuple[int, int]], list[tuple[int, int]]]:
     """Row ranges (first, last) of the flights -- support none for at least MIN_FLIGHT_S, and the
     centre of mass or the centre of the joints' box falling like a thrown body (fitted acceleration
     within BALLISTIC x g of -g, or within 3 sd of it where the heights are too noisy to tell) -- and
-    the runs off every surface that do not fall so (a coach's lift, a support the geometry misses).
-    sigma_z: (M,) the heights' sd (m) per row."""
+    the runs off every surface that do not fall so (a coach's lift, a support the geometry misses)
+    or whose take-off and landing are both unseen (no supported row next to the run that the same
+    body could reach: poses of someone else, or of nobody).
+    sigma_z: (M,) the heights' sd (m) per row (the fits are weighted by it); com: (M, 3) the centre
+    of mass (None: the take-off and landing are not checked)."""
     flights, lifted = [], []
     for a, b in runs(support == NONE, frame):
         if (frame[b] - frame[a] + 1) / fps < MIN_FLIGHT_S - 1e-9:
             continue
+        if com is not None and not (_seen(frame, com, fps, a - 1, a) or _seen(frame, com, fps, b + 1, b)):
+            lifted.append((a, b))  # neither the take-off nor the landing seen: poses of an unknown body
+            continue
         t = frame[a:b + 1] / fps
-        sz = float(np.nanmedian(sigma_z[a:b + 1])) if sigma_z is not None and np.isfinite(sigma_z[a:b + 1]).any() else 0.0
+        sz = sigma_z[a:b + 1] if sigma_z is not None and np.isfinite(sigma_z[a:b + 1]).all() else 0.0
         fits = [fall_rate(t, com_z[a:b + 1], sz), fall_rate(t, box_z[a:b + 1], sz)]
         free = any(np.isfinite(x) and abs(x + G) <= max(BALLISTIC * G, 3 * sd) for x, sd in fits) \
             or not any(np.isfinite(x) for x, _ in fits)
@@ -90,16 +145,22 @@ def _crossing(t_a: float, z_a: float, v_a: float, coef: np.ndarray, lo: float, h
     return float(r[np.argmin(np.abs(r - (lo + hi) / 2))]) if r.size else None
 
 
-def parabola(t: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, float] | None:
-    """Least-squares (c0, c1) of ``z = c0 + c1 t - g t^2 / 2`` (g = 9.81 fixed) and the rms residual."""
+def parabola(t: np.ndarray, z: np.ndarray, w: np.ndarray | None = None):
+    """Least-squares (c0, c1) of ``z = c0 + c1 t - g t^2 / 2`` (g = 9.81 fixed) and the rms residual;
+    with weights ``w`` (1 / sd per row) also the rms of the weighted residuals (a third item)."""
     ok = np.isfinite(z)
     if ok.sum() < 3:
         return None
     A = np.column_stack([np.ones(ok.sum()), t[ok]])
     y = z[ok] + G / 2 * t[ok] ** 2
-    coef, *_ = np.linalg.lstsq(A, y, rcond=None)
+    if w is None:
+        coef, *_ = np.linalg.lstsq(A, y, rcond=None)
+        res = A @ coef - y
+        return coef, float(np.sqrt(np.mean(res ** 2)))
+    ww = np.asarray(w, float)[ok]
+    coef, *_ = np.linalg.lstsq(A * ww[:, None], y * ww, rcond=None)
     res = A @ coef - y
-    return coef, float(np.sqrt(np.mean(res ** 2)))
+    return coef, float(np.sqrt(np.mean(res ** 2))), float(np.sqrt(np.sum((res * ww) ** 2) / max(ok.sum() - 2, 1)))
 
 
 def _sub_frame(frame, com_z, fps, a, b) -> dict:
@@ -108,7 +169,7 @@ def _sub_frame(frame, com_z, fps, a, b) -> dict:
     fit = parabola(t[a:b + 1] - t[a], com_z[a:b + 1])
     if fit is None:
         return {}
-    coef, rms = fit
+    coef, rms = fit[:2]
     t0 = t[a]
     out = {"parabola_rms": round(rms, 4)}
     c0, c1 = coef

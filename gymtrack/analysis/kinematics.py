@@ -123,3 +123,20 @@ def centre_of_mass(X: np.ndarray, body: str = "mean") -> tuple[np.ndarray, np.nd
     com = sum(m * p for m, p in parts) / total
     fallback = ~np.all(np.isfinite(com), axis=-1)
     return np.where(fallback[..., None], H, com), fallback
+
+
+def com_sd(sigma: np.ndarray, body: str = "mean") -> np.ndarray:
+    """(M,) the centre of mass' position sd (m, per axis) from the joints' isotropic, independent
+    sds ``sigma`` (M, K): the centre of mass is a fixed linear combination of the joints (its
+    weights from :func:`centre_of_mass` itself), so sd = sqrt(sum_k w_k^2 sigma_k^2); where a joint
+    is missing, the mid-hip's sd (the fallback)."""
+    K = sigma.shape[-1]
+    E = np.zeros((K, K, 3))
+    E[np.arange(K), np.arange(K), 0] = 1.0
+    w = centre_of_mass(E, body)[0][:, 0]  # (K,) each joint's weight
+    from .joints import I
+
+    with np.errstate(invalid="ignore"):
+        sd = np.sqrt(np.sum((w * sigma) ** 2, axis=-1))
+        hip = 0.5 * np.sqrt(sigma[..., I["left_hip"]] ** 2 + sigma[..., I["right_hip"]] ** 2)
+    return np.where(np.isfinite(sd), sd, hip)
