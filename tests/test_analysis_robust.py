@@ -165,3 +165,47 @@ def test_a_badly_measured_row_weighs_little_in_the_ballistic_fit():
     a_w, a_sd = fall_rate(t, z, sd)
     assert abs(a_plain + 9.81) > 0.5 * 9.81  # the bad row bends the plain fit out of the ballistic band
     assert abs(a_w + 9.81) < 3 * a_sd + 0.5
+
+
+# ------------------------------------------------------------------ shape on noisy joints
+def _salto(hip_flexion: float):
+    """A single back salto at 30 fps, legs straight, hips flexed by ``hip_flexion`` deg all through."""
+    body = B.BodyModel(1.65)
+    b = MotionBuilder(body, 30.0, np.random.default_rng(0))
+    b.place((2.0, 0.0), 0.0, np.pi / 2)
+    b.stand(0.5, 0.0)
+    shape = B.posture_angles(B.LAYOUT)
+    shape[[0, 1]] = hip_flexion
+    b.push(0.0, 0.15, shape)
+    end_c = b.body.centre_on_feet(np.array([[2.0, 1.0]]), 0.0, B.posture_angles(B.STAND)[None], [b.yaw], [-2 * np.pi],
+                                  [0.0])[0]
+    b.flight(end_c, b.flight_frames(b.centre[2], end_c[2], 2.4), -2 * np.pi,
+             angle_keys=[(0.2, shape), (0.8, shape), (1.0, B.posture_angles(B.STAND))])
+    b.stand(1.0, 0.0)
+    m = b.build()
+    pts, _ = body.world_points(m.centre, m.angles, m.yaw, m.pitch, m.twist)
+    return pts[:, :17]
+
+
+@pytest.mark.parametrize("flexion, shape", [(0.0, "layout"), (55.0, "open")])
+def test_shape_on_noisy_joints_with_a_few_badly_measured_knees(flexion, shape):
+    kp = _salto(flexion)
+    scene = preset_scene("horizontal_bar")
+    truth = analyse(poses_of(kp), scene, samples=0, cutoff_hz=None).flights
+    assert [f["shape"] for f in truth] == [shape]
+    a, b = truth[0]["start_frame"] - 1, truth[0]["end_frame"] - 1  # rows (frames are 1-based)
+    knee = COCO17.joints.index("left_knee")
+    for seed in range(4):
+        rng = np.random.default_rng(seed)
+        noisy = kp + rng.normal(0, 0.02, kp.shape)
+        sigma = np.full(kp.shape[:2], 0.02)
+        r0 = rng.integers(a + (b - a) // 4, b - (b - a) // 4 - 2)
+        rows = np.arange(r0, r0 + 3)
+        # three middle frames whose knee the pose stage placed 30 cm off the leg's line (a knee angle
+        # near 110 deg), and knew it (sd 30 cm)
+        hip, ankle, rhip = (COCO17.joints.index(n) for n in ("left_hip", "left_ankle", "right_hip"))
+        perp = np.cross(kp[rows, ankle] - kp[rows, hip], kp[rows, hip] - kp[rows, rhip])
+        noisy[rows, knee] += 0.30 * perp / np.linalg.norm(perp, axis=1, keepdims=True)
+        sigma[rows, knee] = 0.30
+        fl = analyse(poses_of(noisy), scene, samples=0, joint_sigma=sigma).flights
+        assert [f["shape"] for f in fl] == [shape], seed

@@ -28,7 +28,7 @@ from . import elements as E
 from .filtering import CUTOFF_HZ, segments
 from .flights import bridge_contacts, find_flights, flight_elements
 from .joints import NEEDS, USED, gather, body_height
-from .kinematics import com_sd
+from .kinematics import angle_sd, com_sd
 from .rotation import heading
 from .support import foot_height, scene_geometry, support as support_codes
 from .uncertainty import SAMPLES, measure_samples
@@ -206,7 +206,9 @@ def analyse(poses3d: Poses3D, scene: Scene, track_id: int | None = None, *, fps:
     com0 = np.column_stack([cols["com_x"][0], cols["com_y"][0], cols["com_z"][0]])
     sup, bridged = bridge_contacts(frame, sup, fps, cols["com_z"][0], sigma_z)
     fl, lifted = find_flights(frame, sup, fps, cols["com_z"][0], box_z, sigma_z, com0)
-    fels = flight_elements(frame, cols, sup, fps, fl)
+    # the angles' sd on the filtered joints: the low-pass keeps about cutoff / (fps / 2) of white noise's variance
+    keep = np.sqrt(min(1.0, min(cutoff_hz, 0.4 * fps) / (fps / 2))) if cutoff_hz else 1.0
+    fels = flight_elements(frame, cols, sup, fps, fl, angle_sd(Xf, J.sigma * keep))
     land_rows = [e.pop("_landing_row") for e in fels if "_landing_row" in e]
     els += fels
     feet_h = foot_height(Xf, height)

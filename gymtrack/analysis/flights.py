@@ -25,6 +25,7 @@ BALLISTIC = 0.5  #: a flight's fitted vertical acceleration lies within this sha
 WINDOW_S = 1.5
 UPRIGHT_TOL = 10.0  #: degrees (the simulator's ground truth uses the same)
 SHAPE_CLOSED, SHAPE_OPEN = 90.0, 135.0
+SHAPE_SDS = 2.0  #: a middle-half frame breaks a layout only this many sd under SHAPE_OPEN
 CONTACT_MAX_S = 0.1  #: s: a contact this short between airborne runs is bridged if it changed nothing
 V_MAX = 12.0  #: m/s: the centre of mass moves no faster (a sprinter's top speed; a vault's run-up reaches 8-9)
 PARABOLA_CHI = 2.0  #: the centre of mass' weighted rms residual (in sd) within which one parabola holds
@@ -194,19 +195,34 @@ def _sub_frame(frame, com_z, fps, a, b) -> dict:
     return out
 
 
-def shape_of(cols: dict, a: int, b: int) -> tuple[np.ndarray, int]:
-    """(S,) shape codes (0 tuck, 1 pike, 2 layout, 3 open) per sample, and the nominal most closed row."""
+def shape_of(cols: dict, a: int, b: int, sd: dict | None = None) -> tuple[np.ndarray, int]:
+    """(S,) shape codes (0 tuck, 1 pike, 2 layout, 3 open) per sample, and the nominal most closed row.
+
+    sd: the knee and hip angles' per-row sd (degrees, (M,) each, :func:`.kinematics.angle_sd`). The
+    layout's "hips and knees >= 135 all through the middle half", read on a noisy measurement: the
+    middle half's mean of the more bent side is at least :data:`SHAPE_OPEN`, and no frame lies under
+    it by more than :data:`SHAPE_SDS` sd (a straight body measured with noise dips under 135 deg now
+    and then; a body open to 125 deg stays under 135 on average)."""
+    def lo(name):  # the more bent side, each side with its own noise allowance
+        l, r = cols[f"left_{name}"][:, a:b + 1], cols[f"right_{name}"][:, a:b + 1]
+        if sd is not None:
+            l, r = l + SHAPE_SDS * np.nan_to_num(sd[f"left_{name}"][a:b + 1]), r + SHAPE_SDS * np.nan_to_num(sd[f"right_{name}"][a:b + 1])
+        return np.fmin(l, r)
+
     hip = np.fmax(cols["left_hip"][:, a:b + 1], cols["right_hip"][:, a:b + 1])  # both hips under 90: the larger
     knee = np.fmax(cols["left_knee"][:, a:b + 1], cols["right_knee"][:, a:b + 1])
     hip_lo = np.fmin(cols["left_hip"][:, a:b + 1], cols["right_hip"][:, a:b + 1])
     knee_lo = np.fmin(cols["left_knee"][:, a:b + 1], cols["right_knee"][:, a:b + 1])
+    hip_ok, knee_ok = lo("hip"), lo("knee")
     S, n = hip.shape
     closed = np.where(np.isfinite(hip), hip, np.inf)
     k = np.argmin(closed, axis=1)
     h_k, kn_k, kn_lo = hip[np.arange(S), k], knee[np.arange(S), k], knee_lo[np.arange(S), k]
     q0, q1 = n // 4, max(n // 4 + 1, (3 * n + 3) // 4)
     with np.errstate(invalid="ignore"):
-        layout = np.all((hip_lo[:, q0:q1] >= SHAPE_OPEN) & (knee_lo[:, q0:q1] >= SHAPE_OPEN), axis=1)
+        layout = np.all((hip_ok[:, q0:q1] >= SHAPE_OPEN) & (knee_ok[:, q0:q1] >= SHAPE_OPEN), axis=1)
+        if sd is not None:
+            layout &= (np.nanmean(hip_lo[:, q0:q1], axis=1) >= SHAPE_OPEN) & (np.nanmean(knee_lo[:, q0:q1], axis=1) >= SHAPE_OPEN)
         code = np.where((h_k < SHAPE_CLOSED) & (kn_k < SHAPE_CLOSED), 0,
                         np.where((h_k < SHAPE_CLOSED) & (kn_lo >= SHAPE_OPEN), 1, np.where(layout, 2, 3)))
     code = np.where(np.isfinite(h_k) & np.isfinite(kn_k), code, -1)
@@ -217,7 +233,7 @@ SHAPES = ("tuck", "pike", "layout", "open")
 
 
 def flight_elements(frame: np.ndarray, cols: dict, support: np.ndarray, fps: float,
-                    flights: list[tuple[int, int]]) -> list[dict]:
+                    flights: list[tuple[int, int]], angle_sd: dict | None = None) -> list[dict]:
     """The contract's flight records (plus ``<measure>_sd`` and the sub-frame fields) and, after a
     flight ending on the floor, the landing's first-contact row (``_landing_row``)."""
     out = []
@@ -273,7 +289,7 @@ def flight_elements(frame: np.ndarray, cols: dict, support: np.ndarray, fps: flo
         else:
             el["twists"] = None
             missing["twists"] = missing["twist_deg"]
-        code, closed = shape_of(cols, a, b)
+        code, closed = shape_of(cols, a, b, angle_sd)
         if code[0] >= 0:
             el["shape"] = SHAPES[code[0]]
             el["shape_frame"] = int(frame[closed])

@@ -140,3 +140,24 @@ def com_sd(sigma: np.ndarray, body: str = "mean") -> np.ndarray:
         sd = np.sqrt(np.sum((w * sigma) ** 2, axis=-1))
         hip = 0.5 * np.sqrt(sigma[..., I["left_hip"]] ** 2 + sigma[..., I["right_hip"]] ** 2)
     return np.where(np.isfinite(sd), sd, hip)
+
+
+def angle_sd(X: np.ndarray, sigma: np.ndarray) -> dict[str, np.ndarray]:
+    """First-order sd (degrees, (M,) each) of the knee and hip angles of joints X (M, K, 3) with
+    isotropic joint sds ``sigma`` (M, K) (m): an end joint moved by s across its segment of length
+    l turns the angle by s / l; the vertex joint moves both segments. (The Monte Carlo samples give
+    the full sd; this one needs none, for rules that read the measurement alone.)"""
+    S = mid(X, "left_shoulder", "right_shoulder")
+    sS = 0.5 * np.sqrt(sigma[:, I["left_shoulder"]] ** 2 + sigma[:, I["right_shoulder"]] ** 2)
+    out = {}
+
+    def sd(a, sa, b, sb, c, sc):
+        with np.errstate(invalid="ignore", divide="ignore"):
+            iu, iv = 1.0 / np.sum((a - b) ** 2, -1), 1.0 / np.sum((c - b) ** 2, -1)
+            return np.degrees(np.sqrt(sa ** 2 * iu + sc ** 2 * iv + sb ** 2 * (iu + iv)))
+
+    for side in ("left", "right"):
+        h, k, a = (I[f"{side}_{j}"] for j in ("hip", "knee", "ankle"))
+        out[f"{side}_knee"] = sd(X[:, h], sigma[:, h], X[:, k], sigma[:, k], X[:, a], sigma[:, a])
+        out[f"{side}_hip"] = sd(S, sS, X[:, h], sigma[:, h], X[:, k], sigma[:, k])
+    return out
