@@ -209,3 +209,24 @@ def test_shape_on_noisy_joints_with_a_few_badly_measured_knees(flexion, shape):
         sigma[rows, knee] = 0.30
         fl = analyse(poses_of(noisy), scene, samples=0, joint_sigma=sigma).flights
         assert [f["shape"] for f in fl] == [shape], seed
+
+
+# ------------------------------------------------------------------ filtering per support segment
+def test_each_support_segment_takes_its_own_cut_off():
+    from scipy.signal import butter, filtfilt
+
+    from gymtrack.analysis.filtering import filter_joints, segment_cutoffs, segments
+
+    rng = np.random.default_rng(3)
+    frame = np.arange(90)
+    sup = np.r_[np.ones(30), np.zeros(30), np.full(30, 2)].astype(np.int8)  # floor, airborne, apparatus
+    X = rng.normal(0, 0.03, (90, 15, 3)) + np.linspace(0, 1, 90)[:, None, None]
+    segs = segments(frame, sup)
+    cuts = segment_cutoffs(segs, sup, 8.0, 6.0)
+    assert cuts == [6.0, 8.0, 6.0]
+    out = filter_joints(X, segs, 30.0, cuts)
+    for (s0, s1), fc in zip(segs, cuts):  # scipy directly, segment by segment
+        b, a = butter(2, fc / 15.0)
+        np.testing.assert_allclose(out[s0:s1], filtfilt(b, a, X[s0:s1], axis=0, padlen=9), atol=1e-12)
+    assert segment_cutoffs(segs, sup, None, 6.0) == [None] * 3
+    np.testing.assert_array_equal(filter_joints(X, segs, 30.0, [None] * 3), X)

@@ -25,7 +25,7 @@ from ..formats.elements import ANGLES_COLUMNS, SUPPORT_NAMES, validate_elements,
 from ..poses import Poses3D
 from ..scene import Scene
 from . import elements as E
-from .filtering import CUTOFF_HZ, segments
+from .filtering import CUTOFF_HZ, SUPPORT_CUTOFF_HZ, segment_cutoffs, segments
 from .flights import bridge_contacts, find_flights, flight_elements
 from .joints import NEEDS, USED, gather, body_height
 from .kinematics import angle_sd, com_sd
@@ -163,7 +163,7 @@ def _quiet(fn):
 @_quiet
 def analyse(poses3d: Poses3D, scene: Scene, track_id: int | None = None, *, fps: float | None = None,
             samples: int = SAMPLES, seed: int = 0, cutoff_hz: float | None = CUTOFF_HZ, body: str = "mean",
-            joint_sigma: np.ndarray | None = None) -> Analysis:
+            joint_sigma: np.ndarray | None = None, support_cutoff_hz: float | None = SUPPORT_CUTOFF_HZ) -> Analysis:
     """Analyse one track's 3D poses: per-frame angles, centre of mass, support, somersault and twist,
     and the elements (flights, landings, holds, circles, turns), each measure with its sd.
 
@@ -171,7 +171,8 @@ def analyse(poses3d: Poses3D, scene: Scene, track_id: int | None = None, *, fps:
     scene: the routine's scene (apparatus preset, plane, fps); track_id: the track to analyse (default:
     the only one, or the one sequence when every frame has one pose); fps: default ``scene.fps``;
     samples: Monte Carlo samples for the uncertainties (0: none); cutoff_hz: the per-segment
-    low-pass (None: raw joints); body: de Leva's ``mean`` | ``female`` | ``male`` segments;
+    low-pass of airborne segments (None: raw joints everywhere); support_cutoff_hz: that of segments
+    on the floor or the apparatus (None: ``cutoff_hz``); body: de Leva's ``mean`` | ``female`` | ``male`` segments;
     joint_sigma: (M, J) per-joint position sd (m) instead of the one derived from the pose quality.
     """
     poses, tid = _pick_track(poses3d, track_id)
@@ -193,7 +194,8 @@ def analyse(poses3d: Poses3D, scene: Scene, track_id: int | None = None, *, fps:
     height = body_height(J.X)
     sup, grip = support_codes(J.X, geo, height, J.frame, fps)
     segs = segments(J.frame, sup)
-    cols, raw, Xf = measure_samples(J, segs, fps, cutoff_hz, geo.plane_normal, body, samples, seed)
+    cuts = segment_cutoffs(segs, sup, cutoff_hz, support_cutoff_hz)
+    cols, raw, Xf = measure_samples(J, segs, fps, cuts, geo.plane_normal, body, samples, seed)
     if cutoff_hz:  # contact again on the filtered joints (the filter kept every take-off and landing)
         sup, grip = support_codes(Xf, geo, height, J.frame, fps)
     for m in list(cols):

@@ -7,15 +7,23 @@ separately inside every run of frames with one support (floor, apparatus, airbor
 gap over :data:`MAX_GAP` frames. A take-off or landing is a jump in acceleration that a filter
 across it would smear into the neighbouring frames (a flight would start early and end late).
 The 8 Hz cut-off keeps 98 % of a 3 Hz oscillation (a 3 rev/s twist); a 6 Hz walking filter
-would flatten the fastest twists' joint paths and the take-off's impulse.
+would flatten the fastest twists' joint paths and the take-off's impulse. So airborne segments
+take :data:`CUTOFF_HZ`; segments on the floor or the apparatus take :data:`SUPPORT_CUTOFF_HZ`,
+6 Hz, the cut-off Winter's residual analysis gives for human movement (Winter, Biomechanics and
+Motor Control of Human Movement, 4th ed., 2009, Sect. 3.4.4): on support the joints move with
+the body's own muscles and the apparatus (giants and circles turn at 1-1.5 rev/s), not with a
+free twist, and a measured skeleton's joint noise there is what the knee and hip angles read.
 """
 
 from __future__ import annotations
 
+from typing import Sequence
+
 import numpy as np
 from scipy.signal import butter, filtfilt
 
-CUTOFF_HZ = 8.0
+CUTOFF_HZ = 8.0  #: airborne segments (twists up to 3-4 rev/s)
+SUPPORT_CUTOFF_HZ = 6.0  #: segments on the floor or the apparatus (Winter's 6 Hz for human movement)
 MAX_GAP = 2  #: frames: a larger gap between rows ends a segment
 MIN_LEN = 10  #: frames: shorter segments are left as they are (filtfilt needs some padding)
 
@@ -29,17 +37,32 @@ def segments(frame: np.ndarray, support: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(edges[:-1].tolist(), edges[1:].tolist()))
 
 
-def filter_joints(X: np.ndarray, segs: list[tuple[int, int]], fps: float, cutoff_hz: float | None = CUTOFF_HZ) -> np.ndarray:
+def segment_cutoffs(segs: list[tuple[int, int]], support: np.ndarray, airborne_hz: float | None,
+                    supported_hz: float | None) -> list[float | None]:
+    """The cut-off of each segment: ``airborne_hz`` where the body flies (support none), else
+    ``supported_hz`` (``airborne_hz`` where that is None)."""
+    if airborne_hz is None or airborne_hz <= 0:
+        return [None] * len(segs)
+    on = airborne_hz if supported_hz is None else supported_hz
+    return [airborne_hz if support[s0] == 0 else on for s0, _ in segs]
+
+
+def filter_joints(X: np.ndarray, segs: list[tuple[int, int]], fps: float,
+                  cutoff_hz: float | Sequence[float | None] | None = CUTOFF_HZ) -> np.ndarray:
     """X (..., M, K, 3) low-passed along M inside each segment; a joint with a gap (NaN) in a
-    segment is left unfiltered there. ``cutoff_hz`` None: no filtering."""
-    if cutoff_hz is None or cutoff_hz <= 0:
+    segment is left unfiltered there. ``cutoff_hz``: one for all segments or one per segment
+    (:func:`segment_cutoffs`); None: no filtering."""
+    cuts = list(cutoff_hz) if isinstance(cutoff_hz, (list, tuple)) else [cutoff_hz] * len(segs)
+    if not any(c is not None and c > 0 for c in cuts):
         return X
-    wn = min(cutoff_hz, 0.4 * fps) / (fps / 2)
-    b, a = butter(2, wn)
+    coef = {}
     out = X.copy()
-    for s0, s1 in segs:
-        if s1 - s0 < MIN_LEN:
+    for (s0, s1), fc in zip(segs, cuts):
+        if s1 - s0 < MIN_LEN or fc is None or fc <= 0:
             continue
+        if fc not in coef:
+            coef[fc] = butter(2, min(fc, 0.4 * fps) / (fps / 2))
+        b, a = coef[fc]
         part = X[..., s0:s1, :, :]
         ok = np.isfinite(part).all(axis=-1).reshape(-1, part.shape[-2]).all(axis=0)  # (K,)
         if not ok.any():
