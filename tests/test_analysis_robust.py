@@ -230,3 +230,23 @@ def test_each_support_segment_takes_its_own_cut_off():
         np.testing.assert_allclose(out[s0:s1], filtfilt(b, a, X[s0:s1], axis=0, padlen=9), atol=1e-12)
     assert segment_cutoffs(segs, sup, None, 6.0) == [None] * 3
     np.testing.assert_array_equal(filter_joints(X, segs, 30.0, [None] * 3), X)
+
+
+def test_rotation_window_keeps_the_take_off_side_when_the_poses_stop_at_landing():
+    """A vault's second flight: 100 deg turned on the table before take-off, 890 in the air, and the
+    poses lost right after landing; the rules count from the most upright frame before take-off."""
+    from gymtrack.analysis.flights import flight_elements
+
+    fps, n_pre, n_air = 30.0, 20, 30
+    M = n_pre + n_air  # the poses stop with the flight's last frame
+    frame = np.arange(M)
+    som = np.r_[np.linspace(0, 100, n_pre), np.linspace(100, 990, n_air)]
+    incl = np.abs(((som + 180) % 360) - 180)  # 0 upright
+    one = np.ones(M)
+    cols = {k: v[None] for k, v in {"somersault": som, "twist": 0 * one, "inclination": incl, "com_x": 0 * one,
+                                      "com_y": 0 * one, "com_z": one, "left_hip": 170 * one, "right_hip": 170 * one,
+                                      "left_knee": 170 * one, "right_knee": 170 * one, "split": 10 * one}.items()}
+    sup = np.r_[np.full(n_pre, 2), np.zeros(n_air)].astype(np.int8)
+    fl = flight_elements(frame, cols, sup, fps, [(n_pre, n_pre + n_air - 1)])
+    assert fl[0]["rotation_window"] == "landing" and fl[0]["rotation_from_frame"] <= 2  # upright within 10 deg
+    assert fl[0]["saltos"] == 2.75

@@ -254,11 +254,14 @@ def flight_elements(frame: np.ndarray, cols: dict, support: np.ndarray, fps: flo
         vals = {"apex_z": apex, "height_gain": apex - z[:, a],
                 "distance": np.hypot(cols["com_x"][:, b] - cols["com_x"][:, a], cols["com_y"][:, b] - cols["com_y"][:, a])}
         som, tw = cols["somersault"], cols["twist"]
-        if i0 is None or i1 is None:
-            i0, i1 = a, b
+        # a side without a frame (the poses start or stop there) falls back to the flight's own end
+        # alone: the other side's upright frame still counts the rotation before take-off or after landing
+        if i0 is None and i1 is None:
             el["rotation_window"] = "flight"
-        else:
-            el["rotation_from_frame"], el["rotation_to_frame"] = int(frame[i0]), int(frame[i1])
+        elif i0 is None or i1 is None:
+            el["rotation_window"] = "take-off" if i0 is None else "landing"
+        i0, i1 = a if i0 is None else i0, b if i1 is None else i1
+        el["rotation_from_frame"], el["rotation_to_frame"] = int(frame[i0]), int(frame[i1])
         vals["somersault_deg"] = som[:, i1] - som[:, i0]
         vals["twist_deg"] = tw[:, i1] - tw[:, i0]
         vals["airborne_somersault_deg"] = som[:, b] - som[:, a]
