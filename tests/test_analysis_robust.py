@@ -250,3 +250,25 @@ def test_rotation_window_keeps_the_take_off_side_when_the_poses_stop_at_landing(
     fl = flight_elements(frame, cols, sup, fps, [(n_pre, n_pre + n_air - 1)])
     assert fl[0]["rotation_window"] == "landing" and fl[0]["rotation_from_frame"] <= 2  # upright within 10 deg
     assert fl[0]["saltos"] == 2.75
+
+
+def test_frames_whose_twist_lines_the_pose_stage_knew_were_bad_are_not_read(twisting_double):
+    kp, start, stop = twisting_double
+    bad = kp.copy()
+    sigma = np.full(kp.shape[:2], 0.01)
+    names = ("left_shoulder", "right_shoulder", "left_hip", "right_hip")
+    ls, rs, lh, rh = (COCO17.joints.index(n) for n in names)
+    r0 = start + (stop - start) // 2
+    # two frames whose shoulders and hips were both put 60 and 120 deg round the long axis (the lines
+    # agree, so the agreement test passes them), with the sds the pose stage gave them (40 cm)
+    for r, turn in ((r0, np.radians(60)), (r0 + 1, np.radians(120))):
+        S, H = 0.5 * (kp[r, ls] + kp[r, rs]), 0.5 * (kp[r, lh] + kp[r, rh])
+        L = (S - H) / np.linalg.norm(S - H)
+        for a, b, c in ((ls, rs, S), (lh, rh, H)):
+            v = kp[r, a] - c
+            w = v * np.cos(turn) + np.cross(L, v) * np.sin(turn) + L * (L @ v) * (1 - np.cos(turn))
+            bad[r, a], bad[r, b] = c + w, c - w
+        sigma[r, [ls, rs, lh, rh]] = 0.40
+    a = analyse(poses_of(bad), SCENE, samples=0, cutoff_hz=None, joint_sigma=sigma)
+    f = a.flights[0]
+    assert (f["saltos"], f["twists"]) == (2.0, 1.0)

@@ -29,6 +29,7 @@ from .joints import I
 FOLDED_HIP = 120.0  #: degrees: below this hip angle the trunk is folded (twist from the pelvis)
 DISAGREE = 30.0  #: degrees: shoulder and pelvis lines further apart than this are flagged
 LOCK = 15.0  #: degrees: the long axis this close to the plane's normal has no somersault or twist
+TWIST_SD_MAX = 45.0  #: degrees: a frame whose twist line is known worse than this is not read
 Z = np.array([0.0, 0.0, 1.0])
 
 
@@ -143,3 +144,17 @@ def heading(X: np.ndarray) -> np.ndarray:
     v = np.where(np.isfinite(w), v / np.linalg.norm(v, axis=-1, keepdims=True)
                  + w / np.linalg.norm(w, axis=-1, keepdims=True), v)
     return np.arctan2(v[..., 1], v[..., 0]) - np.pi / 2
+
+
+def twist_sd(X: np.ndarray, sigma: np.ndarray, pelvis: np.ndarray) -> np.ndarray:
+    """(M,) first-order sd (degrees) of the twist line's direction at each frame: a line between two
+    joints of sds s1, s2 and length l turns by sqrt(s1^2 + s2^2) / l; the pelvis line alone where
+    ``pelvis`` (M,) (the trunk folded), else the mean of the shoulder and pelvis lines (the
+    shoulder line alone where a hip is missing). X (M, K, 3), sigma (M, K) metres."""
+    def line(a, b):
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.degrees(np.hypot(sigma[:, I[a]], sigma[:, I[b]]) / np.linalg.norm(X[:, I[a]] - X[:, I[b]], axis=-1))
+
+    sh, pe = line("left_shoulder", "right_shoulder"), line("left_hip", "right_hip")
+    both = np.where(np.isfinite(sh) & np.isfinite(pe), 0.5 * np.hypot(sh, pe), np.where(np.isfinite(pe), pe, sh))
+    return np.where(pelvis, pe, both)

@@ -18,7 +18,7 @@ import numpy as np
 
 from .filtering import filter_joints
 from .kinematics import centre_of_mass, frame_angles
-from .rotation import raw_rotation, unwrap, unwrap_axial
+from .rotation import TWIST_SD_MAX, raw_rotation, twist_sd, unwrap, unwrap_axial
 
 SAMPLES = 32
 CHUNK_VALUES = 4_000_000  #: joint coordinates per chunk of samples (about 32 MB of float64 per array)
@@ -70,7 +70,10 @@ def measure_samples(J, segs, fps: float, cutoff_hz, normal, body: str, samples: 
             valid_s = np.isfinite(pf["somersault"][0])
             # the twist is read where the shoulder and pelvis lines agree: a frame where they do not
             # has at least one line wrong (pose noise, a part-swapped pose), folded trunk or not
-            valid_t = np.isfinite(pf["twist"][0]) & ~pf["disagree"][0]
+            # and where its line's direction is known to TWIST_SD_MAX (the joints' sds over the line's length)
+            with np.errstate(invalid="ignore"):
+                sharp = twist_sd(X[0], J.sigma, pf["pelvis"][0]) <= TWIST_SD_MAX
+            valid_t = np.isfinite(pf["twist"][0]) & ~pf["disagree"][0] & sharp
             valid = (valid_s, valid_t)
         for m in MEASURES:
             v = pf[m]
