@@ -9,9 +9,9 @@ across it would smear into the neighbouring frames (a flight would start early a
 The 8 Hz cut-off keeps 98 % of a 3 Hz oscillation (a 3 rev/s twist); a 6 Hz walking filter
 would flatten the fastest twists' joint paths and the take-off's impulse. So airborne segments
 take :data:`CUTOFF_HZ`; segments on the floor or the apparatus take :data:`SUPPORT_CUTOFF_HZ`,
-6 Hz, the cut-off Winter's residual analysis gives for human movement (Winter, Biomechanics and
-Motor Control of Human Movement, 4th ed., 2009, Sect. 3.4.4): on support the joints move with
-the body's own muscles and the apparatus (giants and circles turn at 1-1.5 rev/s), not with a
+6 Hz, the cut-off Winter's residual analysis gives for body markers in walking and widely used
+for human movement (Winter, Biomechanics and Motor Control of Human Movement, 4th ed., 2009,
+ch. 2): on support the joints move with the body's own muscles and the apparatus (giants and circles turn at 1-1.5 rev/s), not with a
 free twist, and a measured skeleton's joint noise there is what the knee and hip angles read.
 """
 
@@ -23,7 +23,7 @@ import numpy as np
 from scipy.signal import butter, filtfilt
 
 CUTOFF_HZ = 8.0  #: airborne segments (twists up to 3-4 rev/s)
-SUPPORT_CUTOFF_HZ = 6.0  #: segments on the floor or the apparatus (Winter's 6 Hz for human movement)
+SUPPORT_CUTOFF_HZ = 6.0  #: segments on the floor or the apparatus (Winter's 6 Hz, residual analysis)
 MAX_GAP = 2  #: frames: a larger gap between rows ends a segment
 MIN_LEN = 10  #: frames: shorter segments are left as they are (filtfilt needs some padding)
 
