@@ -11,8 +11,9 @@ would flatten the fastest twists' joint paths and the take-off's impulse. So air
 take :data:`CUTOFF_HZ`; segments on the floor or the apparatus take :data:`SUPPORT_CUTOFF_HZ`,
 6 Hz, the cut-off Winter's residual analysis gives for body markers in walking and widely used
 for human movement (Winter, Biomechanics and Motor Control of Human Movement, 4th ed., 2009,
-ch. 2): on support the joints move with the body's own muscles and the apparatus (giants and circles turn at 1-1.5 rev/s), not with a
-free twist, and a measured skeleton's joint noise there is what the knee and hip angles read.
+ch. 2): on support the joints move with the body's own muscles and the apparatus (giants and
+circles turn at 1-1.5 rev/s), not with a free twist, and a measured skeleton's joint noise there
+is what the knee and hip angles read.
 """
 
 from __future__ import annotations
