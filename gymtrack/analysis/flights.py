@@ -204,10 +204,11 @@ def shape_of(cols: dict, a: int, b: int, sd: dict | None = None) -> tuple[np.nda
     it by more than :data:`SHAPE_SDS` sd (a straight body measured with noise dips under 135 deg now
     and then; a body open to 125 deg stays under 135 on average)."""
     def lo(name):  # the more bent side, each side with its own noise allowance
-        l, r = cols[f"left_{name}"][:, a:b + 1], cols[f"right_{name}"][:, a:b + 1]
+        left, right = cols[f"left_{name}"][:, a:b + 1], cols[f"right_{name}"][:, a:b + 1]
         if sd is not None:
-            l, r = l + SHAPE_SDS * np.nan_to_num(sd[f"left_{name}"][a:b + 1]), r + SHAPE_SDS * np.nan_to_num(sd[f"right_{name}"][a:b + 1])
-        return np.fmin(l, r)
+            left = left + SHAPE_SDS * np.nan_to_num(sd[f"left_{name}"][a:b + 1])
+            right = right + SHAPE_SDS * np.nan_to_num(sd[f"right_{name}"][a:b + 1])
+        return np.fmin(left, right)
 
     hip = np.fmax(cols["left_hip"][:, a:b + 1], cols["right_hip"][:, a:b + 1])  # both hips under 90: the larger
     knee = np.fmax(cols["left_knee"][:, a:b + 1], cols["right_knee"][:, a:b + 1])
