@@ -39,6 +39,7 @@ def _root(
 from . import options  # noqa: E402,F401  (first: its help patch applies to every command)
 from . import info, simulate, track, benchmark, pose, eval, fit_plane, detect, run, models, view, batch  # noqa: E402,F401
 from . import export  # noqa: E402,F401
+from . import sync  # noqa: E402,F401
 
 
 def main() -> None:

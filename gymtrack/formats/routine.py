@@ -49,6 +49,7 @@ class Routine:
     has_gt: the folder has a ``gt/`` sub-folder.
     gt: key of :data:`GT_FILES` -> path, for the ground-truth files present.
     ignored: files in ``detections/`` that are not ``.txt`` (listed, not read).
+    shifted_out: boxes that scene.yaml's ``frame_offsets`` moved before frame 0 (left out, warned).
     """
 
     path: Path
@@ -61,6 +62,7 @@ class Routine:
     has_gt: bool = False
     gt: dict[str, Path] = field(default_factory=dict)
     ignored: tuple[Path, ...] = ()
+    shifted_out: int = 0
 
     @property
     def camera_names(self) -> tuple[str, ...]:
@@ -137,12 +139,45 @@ def load_routine(path: str | Path, calibration_format: str | None = None, **cali
         d, r = read_detections(txt[name], i, rig.names)
         parts.append(d)
         reports.append(r)
-    detections = Detections.concat(parts).sorted()
+    detections, shifted_out = apply_frame_offsets(Detections.concat(parts), scene.frame_offsets, rig.names, scene_path)
 
     gt_dir = path / "gt"
     gt = {k: gt_dir / rel for k, rel in GT_FILES.items() if (gt_dir / rel).exists()}
     return Routine(
         path=path, rig=rig, scene=scene, detections=detections, reports=tuple(reports),
         calibration_path=calib_path, calibration_report=calib_report, has_gt=gt_dir.is_dir(), gt=gt, ignored=ignored,
+        shifted_out=shifted_out,
     )
+
+
+def apply_frame_offsets(rows, offsets: dict[str, int], names: tuple[str, ...], source: Path | None = None):
+    """``frame_offsets`` of scene.yaml applied to (N,) rows with ``frame`` and ``camera`` columns
+    (:class:`Detections` or :class:`~gymtrack.poses.Poses2D`): a camera's frame ``f`` becomes
+    ``f - offset``. Returns the shifted rows sorted by (frame, camera) and how many fell before
+    frame 0 (left out, with a warning). An offset naming a camera the rig lacks is a RoutineError."""
+    import dataclasses
+    import warnings
+
+    import numpy as np
+
+    from ..errors import GymtrackWarning
+
+    for cam in offsets:
+        if cam not in names:
+            raise RoutineError(f"frame_offsets names camera {cam!r}, which the calibration lacks "
+                               f"(cameras: {', '.join(names)})", source=source, field=f"frame_offsets.{cam}")
+    by_cam = np.array([offsets.get(n, 0) for n in names], dtype=np.int64)
+    if not by_cam.any():
+        return (rows.sorted() if isinstance(rows, Detections) else rows), 0
+    frame = rows.frame - by_cam[rows.camera]
+    keep = np.flatnonzero(frame >= 0)
+    out = int(len(frame) - len(keep))
+    if out:
+        warnings.warn(f"frame_offsets moved {out} rows before frame 0; they are left out", GymtrackWarning, stacklevel=2)
+    order = keep[np.lexsort((rows.camera[keep], frame[keep]))]
+    if isinstance(rows, Detections):
+        shifted = Detections(frame, rows.camera, rows.box, rows.score, rows.track_id, rows.camera_names)
+        return shifted.select(order), out
+    cols = {n: getattr(rows, n)[order] for n in ("camera", "track_id", "keypoints", "bbox")}
+    return dataclasses.replace(rows, frame=frame[order], **cols), out
 

@@ -56,4 +56,6 @@ def routine_poses(routine, result, keypoints: str | Path | None = None, simulate
     if not kdir.exists():
         raise InputError("no 2D keypoints: add ROUTINE/keypoints/<camera>.json, give --keypoints DIR, "
                          "or use --simulated-model on a simulated routine", source=kdir)
-    return read_keypoints(kdir, routine.rig.names)
+    from ..formats.routine import apply_frame_offsets
+
+    return apply_frame_offsets(read_keypoints(kdir, routine.rig.names), routine.scene.frame_offsets, routine.rig.names)[0]
