@@ -65,6 +65,7 @@ def tracker_summary(t) -> dict:
     if t.association == "oracle":
         s["detections_dropped_false_positive"] = {n: int(v) for n, v in zip(names, t.false_positives)}
         s["detections_dropped_duplicate"] = int(t.counts["duplicates"])
+    s.update(t.venue.summary())  # a knocked or unsynchronised camera (only when there is one)
     return s
 
 
