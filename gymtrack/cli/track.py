@@ -90,6 +90,8 @@ def track(
                                                 f"(repeat the option): {', '.join(INGREDIENTS)}"),
     adding: Optional[list[str]] = typer.Option(None, "--adding", help="switch this ingredient on as cascade+ has it "
                                                "(repeat the option; names as --without)"),
+    recalibrate: bool = typer.Option(True, "--recalibrate/--no-recalibrate", help="re-estimate a knocked camera's "
+                                     "rotation from the other views and apply it from then on (the warning stays)"),
 ) -> None:
     """Track a routine: 3D tracks, per-view boxes and the target gymnast (paper Section III)."""
     from gymtrack.cli.system import compile_notice
@@ -107,6 +109,8 @@ def track(
     inputs = {"routine": Path(routine).absolute(), "mode": mode, "calibration_format": calibration_format, "units": units}
     if without or adding:
         inputs |= {"without": list(without or ()), "adding": list(adding or ())}
+    if not recalibrate:
+        inputs["recalibrate"] = False
     with interrupts(), atomic_output(out, "track", inputs, overwrite=overwrite, protect=[routine]) as staging:
         r, checks = read_routine(routine, calibration_format, units, silent_seconds)
         notice = compile_notice()
@@ -119,7 +123,7 @@ def track(
             def progress(done: int, total: int) -> None:
                 bar.update(task, completed=done, total=total)
 
-            result = track_detections(r.rig, r.scene, r.detections, mode=method, progress=progress)
+            result = track_detections(r.rig, r.scene, r.detections, mode=method, progress=progress, recalibrate=recalibrate)
         for msg in empty_result_warnings(result.summary):
             REPORTER.warn(msg)
         REPORTER.check_strict(strict)

@@ -22,6 +22,7 @@ import numpy as np
 
 from ..detections import Detections
 from ..geometry.camera import Camera
+from ..tracking.drift import turn_pixels
 
 __all__ = ["desync_camera", "knock_camera", "knock_rotation", "drop_frames"]
 
@@ -50,18 +51,8 @@ def knock_camera(det: Detections, cam: Camera, camera: int, from_frame: int, rot
     camera coordinates) from ``from_frame`` on: the box centres moved by ``K R K^-1``."""
     m = np.flatnonzero((det.camera == camera) & (det.frame >= from_frame))
     box = det.box.copy()
-    box[m, :2] = rotate_view(cam, det.box[m, :2], rotation)
+    box[m, :2] = turn_pixels(cam, det.box[m, :2], rotation)
     return Detections(det.frame, det.camera, box, det.score, det.track_id, det.camera_names)
-
-
-def rotate_view(cam: Camera, uv: np.ndarray, rotation: np.ndarray) -> np.ndarray:
-    """(n, 2) raw pixels of ``cam`` -> where they lie after the camera turned by ``rotation``
-    (camera coordinates) about its centre (distortion undone, then applied again)."""
-    x = cam.undistort(uv)
-    ray = np.c_[x, np.ones(len(x))] @ np.linalg.inv(cam.K).T  # camera coordinates
-    turned = ray @ rotation.T  # the turned camera's R is rotation @ R: every ray turns by rotation
-    world = cam.centre + turned @ cam.R  # (R^T d for each row d)
-    return cam.project(world)
 
 
 def drop_frames(det: Detections, camera: int, share: float, seed: int = 0) -> tuple[Detections, int]:

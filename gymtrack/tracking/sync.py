@@ -6,7 +6,7 @@ boxes leave the epipolar lines of the others' (Eq. 1). For every camera pair and
 ``d`` the cost is the mean over one view's boxes of the smallest Eq. 1 distance to the other
 view's boxes ``d`` frames later (capped, so people seen in one view only weigh the same at every
 shift); the offsets (camera 0 the reference, 0) are the joint choice over ``+-search`` frames
-that minimises the sum of the pairs' costs. Sub-frame: a parabola through the joint cost at the
+that minimises the sum of the pairs' costs, each pair's curve scaled by its median and weighted by its depth. Sub-frame: a parabola through the joint cost at the
 best offset and its neighbours. Confidence per camera: how much worse its best offset two or more frames away is,
 as a share of the cost's spread (0: a tie, the data cannot decide; 1: one offset stands out).
 
@@ -141,7 +141,10 @@ def estimate_offsets(det: Detections, rig: Rig, search: int = 10, max_boxes: int
     with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # (the lower triangle: all NaN)
         scale = np.nanmedian(cost, axis=2, keepdims=True)
-        norm = np.nan_to_num(cost / scale, nan=1.0)
+        norm = cost / scale
+        # each pair weighted by its curve's depth: a pair whose boxes barely tell the shifts apart
+        # (static people, an opposite pair along its epipolar lines) says little
+        norm = np.nan_to_num(norm * (1.0 - np.nanmin(norm, axis=2, keepdims=True)), nan=0.0)
     cand = np.arange(-search, search + 1)
     grids = np.stack(np.meshgrid(*([cand] * (C - 1)), indexing="ij"), -1).reshape(-1, C - 1)
     offs = np.concatenate([np.zeros((len(grids), 1), np.int64), grids], axis=1)  # (G, C)
