@@ -104,6 +104,8 @@ def benchmark(
     no_wildtrack: bool = typer.Option(False, "--no-wildtrack", help="skip the real-data section"),
     no_mot: bool = typer.Option(False, "--no-mot", help="skip the all-people MOT metrics (faster)"),
     no_dropout: bool = typer.Option(False, "--no-dropout", help="skip the camera drop-out section (gymtrack.eval.dropout)"),
+    faults: bool = typer.Option(False, "--faults", help="also the venue-faults section (gymtrack.eval.fault_bench): "
+                                "desync, knock, dropped frames, silent camera; clean / with the fault / corrected"),
     no_pose: bool = typer.Option(False, "--no-pose", help="skip the target's 3D pose (Fig. 7 table, lifting ablation)"),
     mvor: Optional[Path] = typer.Option(None, "--mvor", help="MVOR folder for the real-keypoints pose section (default: $GYMTRACK_MVOR or shared/data/mvor above the project; skipped with a note if absent)"),
     check: bool = typer.Option(False, "--check", help="exit with status 1 when a target (claim) fails or a run fails"),
@@ -156,6 +158,15 @@ def benchmark(
         console.print("camera drop-out section ...")
         rows = run_dropout(specs)
         drop = (dropout_markdown(rows), rows)
+    if faults:
+        from gymtrack.eval.fault_bench import faults_markdown, run_faults
+
+        console.print("venue faults section ...")
+        rows = run_faults(specs)
+        md = faults_markdown(rows)
+        drop = (md, rows) if drop is None else (drop[0] + "\n\n" + md, drop[1])
+        (out / "faults.json").parent.mkdir(parents=True, exist_ok=True)
+        (out / "faults.json").write_text(__import__("json").dumps(rows, indent=1, default=str))
     wt = None
     if not no_wildtrack:
         from gymtrack.eval.config import DEFAULT_CONFIG
