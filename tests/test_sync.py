@@ -94,3 +94,31 @@ def test_drop_frames_drops_that_share_of_one_camera(sim):
     assert n == round(0.02 * len(frames))
     assert len(np.unique(det.frame[det.camera == 2])) == len(frames) - n
     assert (det.camera != 2).sum() == (sim.detections.camera != 2).sum()
+
+
+def test_resynchronise_gives_back_the_synchronised_boxes(sim):
+    from gymtrack.eval.fault_bench import resynchronise
+
+    fixed, offs = resynchronise(desync_camera(sim.detections, 2, -4), sim.rig)
+    assert offs.tolist() == [0, 0, -4, 0]
+    back = fixed.for_camera(2)
+    clean = sim.detections.for_camera(2)
+    keep = clean.frame > 4  # (its first 4 frames were pushed before frame 1: left out)
+    assert np.array_equal(np.sort(back.frame), np.sort(clean.frame[keep]))
+
+
+def test_faults_table_pools_and_markdown_sides():
+    from gymtrack.eval.fault_bench import faults_markdown, faults_table
+
+    base = {"routine": "r", "apparatus": "a", "camera": "cam1", "fault": "desync 3", "method": "m", "mota": 0.5, "idf1": 0.5}
+    rows = [{**base, "state": "clean", "aed_sum": 1.0, "aed_n": 10, "cov_covered": 10, "cov_frames": 10},
+            {**base, "state": "fault", "aed_sum": 4.0, "aed_n": 10, "cov_covered": 8, "cov_frames": 10, "exact": True,
+             "offset": 3, "found": 3},
+            {**base, "state": "fault", "aed_sum": 2.0, "aed_n": 30, "cov_covered": 10, "cov_frames": 10, "exact": False,
+             "offset": 3, "found": 2},
+            {**base, "state": "corrected", "aed_sum": 1.1, "aed_n": 10, "cov_covered": 10, "cov_frames": 10}]
+    t = {x["state"]: x for x in faults_table(rows)}
+    assert np.isclose(t["fault"]["aed"], 6.0 / 40) and np.isclose(t["fault"]["coverage"], 0.9)
+    md = faults_markdown(rows)
+    assert "| desync 3 | m | 0.100 / 0.150 / 0.110 |" in md.replace("0.1 /", "0.100 /")
+    assert "exactly in 1 of 2 runs" in md
