@@ -33,8 +33,9 @@ __all__ = ["DriftMonitor", "turn_pixels", "fit_rotation"]
 
 BASELINE_SECONDS = 5.0  # the seconds of residuals before the last one: where the camera was
 RECENT_SECONDS = 1.0  # a camera's residual must have stepped away for this long
+EVERY_WINDOWS = 3  # windows between samples (residuals change slowly; keeps the check's cost small)
 MIN_DEG = 0.3  # the smallest step reported (below: how much the box centres' agreement wanders)
-NOISE_FACTOR = 3.0  # ... or this many times the scatter of a half second's median (from the windows')
+NOISE_FACTOR = 3.0  # ... or this many times the scatter of one sample's median residual
 CONSISTENT = 2.0  # the fitted turn may be at most this many times the step (plus MIN_DEG)
 SEPARATION = 1.5  # the knocked camera's step against the largest of the others' (which it drags along)
 MAX_RESIDUAL = 0.05  # radians (3 deg): a larger leave-one-out residual is a wrong association, not drift
@@ -62,12 +63,21 @@ def fit_rotation(before: np.ndarray, after: np.ndarray) -> np.ndarray:
     return U @ np.diag([1.0, 1.0, d]) @ Vt
 
 
+def _nanmedian(a: np.ndarray) -> np.ndarray:
+    """Median over axis 1 ignoring NaN (NaN where all are): numpy's nanmedian is slow on small arrays."""
+    s = np.sort(a, axis=1)  # (NaN last)
+    n = np.isfinite(a).sum(axis=1, keepdims=True)
+    lo = np.take_along_axis(s, np.maximum(n - 1, 0) // 2, axis=1)
+    med = np.where(n % 2 == 1, lo, (lo + np.take_along_axis(s, np.minimum(n // 2, a.shape[1] - 1), axis=1)) / 2)
+    return np.where(n > 0, med, np.nan)[:, 0]
+
+
 def _degrees(R: np.ndarray) -> float:
     return float(np.degrees(np.arccos(np.clip((np.trace(R) - 1) / 2, -1, 1))))
 
 
 class DriftMonitor:
-    """Leave-one-out residuals per camera and window; knock events; the sync regression.
+    """Residuals per camera x view pair, sampled every few windows; knock events; the sync regression.
 
     rig: the cameras; fps: frames per second; step: frames between windows; opposite: (C, C) bool,
     the view pairs judged opposite (:func:`~gymtrack.geometry.views.opposite_pairs`); recalibrate:
@@ -76,140 +86,150 @@ class DriftMonitor:
 
     def __init__(self, rig: Rig, fps: float, step: int, opposite: np.ndarray, recalibrate: bool = True):
         self.rig, self.fps, self.recalibrate = rig, fps, recalibrate
-        self.opposite = np.asarray(opposite, dtype=np.float64)  # (C, C) opposite view pairs
         C = self.C = len(rig)
         self.Kinv = np.stack([np.linalg.inv(c.K) for c in rig])
+        self.Rt = np.stack([c.R.T for c in rig])  # (C, 3, 3) camera -> world directions
+        self.centres = rig.centres
         self.Pn = np.stack([np.c_[c.R, c.t] for c in rig])  # (C, 3, 4) normalised projections
-        self.n_base = max(3, int(round(BASELINE_SECONDS * fps / step)))
-        self.n_recent = max(3, int(round(RECENT_SECONDS * fps / step)))
-        self.step = step
-        # per camera and window: (last frame, median residual (2,), residuals (n, 2), points (n, 3), rays (n, 3))
+        every = step * EVERY_WINDOWS  # frames between samples
+        self.n_base = max(3, int(round(BASELINE_SECONDS * fps / every)))
+        self.n_recent = max(2, int(round(RECENT_SECONDS * fps / every)))
+        self.step, self._windows = every, 0
         # the view pairs that triangulate (not opposite: ill-conditioned there); a camera is judged
         # by the points of each pair without it (a knocked camera drags the pairs it is in)
         pa, pb = np.triu_indices(C, 1)
         keep = ~np.asarray(opposite, bool)[pa, pb]
         self.pairs = (pa[keep], pb[keep])
-        self.outside = np.ones((len(self.pairs[0]), C), bool)  # (Np, C) the views outside each pair
-        self.outside[np.arange(len(self.pairs[0])), self.pairs[0]] = False
-        self.outside[np.arange(len(self.pairs[0])), self.pairs[1]] = False
-        self.history: list[list[tuple]] = [[] for _ in range(C * len(self.pairs[0]))]  # per camera x pair
+        Np = len(self.pairs[0])
+        self.outside = np.ones((Np, C), bool)  # (Np, C) the views outside each pair
+        self.outside[np.arange(Np), self.pairs[0]] = False
+        self.outside[np.arange(Np), self.pairs[1]] = False
+        L = self.n_base + self.n_recent
+        self.meds = np.full((C * Np, L, 2), np.nan)  # per camera x pair: the last L samples' median residual
+        self.frames = np.zeros(L, np.int64)  # each sample's last frame
+        self.points: list[list] = [[None] * L for _ in range(C * Np)]  # (world points, rays) of each sample
         self.last_frame = 0
-        self.sums = np.zeros((C, 5))  # sync regression per camera: n, sum v.v, sum v.r, sum v, sum r
+        self.sums = np.zeros((C, 3))  # sync regression per camera: n, sum v.v, sum v.r
         self.events: list[dict] = []
         self.turns: dict[int, tuple[int, np.ndarray]] = {}  # camera -> (from frame, rotation now vs calibrated)
         self.first: int | None = None
 
     # ------------------------------------------------------------ per window
     def observe(self, start: int, box: np.ndarray, observed: np.ndarray, members: np.ndarray) -> None:
-        """One window: segments' undistorted boxes (K, W, 4), observed (K, W), clusters (M, C)."""
+        """One window: segments' undistorted boxes (K, W, 4), observed (K, W), clusters (M, C).
+        Every :data:`EVERY_WINDOWS`-th window is used (the residuals change slowly; the cost stays small)."""
         if self.first is None:
             self.first = start
-        members = members[(members >= 0).sum(axis=1) >= 3]
-        if not len(members):
+        self._windows += 1
+        if self._windows % EVERY_WINDOWS:
             return
+        self.last_frame = frame = start + observed.shape[1] - 1
+        self.meds[:, :-1] = self.meds[:, 1:]  # a new sample (NaN where a camera x pair has too few points)
+        self.meds[:, -1] = np.nan
+        self.frames[:-1] = self.frames[1:]
+        self.frames[-1] = frame
+        for pts in self.points:
+            pts.pop(0)
+            pts.append(None)
+        members = members[(members >= 0).sum(axis=1) >= 3]
+        if len(members):
+            self._residuals(box, observed, members)
+        self._check()
+
+    def _residuals(self, box: np.ndarray, observed: np.ndarray, members: np.ndarray) -> None:
         has = members >= 0
         idx = np.where(has, members, 0)
         obs = observed[idx] & has[..., None]  # (M, C, W)
         uv = box[idx][..., :2]  # (M, C, W, 2)
-        x = np.einsum("cij,mcwj->mcwi", self.Kinv[:, :, :2], uv) + self.Kinv[None, :, None, :, 2]  # rays (M, C, W, 3)
-        x = x[..., :2] / x[..., 2:]
-        # the DLT rows of every view (M, C, W, 2, 4); a view left out or unobserved adds nothing
-        P = self.Pn[None, :, None]
-        rows = np.stack([x[..., 0:1] * P[..., 2, :] - P[..., 0, :], x[..., 1:2] * P[..., 2, :] - P[..., 1, :]], -2)
-        rows = np.where(obs[..., None, None], rows, 0.0)
-        own = np.einsum("mcwri,mcwrj->mcwij", rows, rows)  # (M, C, W, 4, 4) each view's DLT normal matrix
+        x = np.einsum("cij,mcwj->mcwi", self.Kinv[:, :2, :2], uv) + self.Kinv[None, :, None, :2, 2]  # (M, C, W, 2)
         pa, pb = self.pairs
         pair_ok = obs[:, pa] & obs[:, pb]  # (M, Np, W): the pair saw the point
-        if not pair_ok.any():
-            return
-        _, vec = np.linalg.eigh(own[:, pa][pair_ok] + own[:, pb][pair_ok])
-        X = vec[:, :, 0]  # (the eigenvector of the smallest eigenvalue)
-        X = X[:, :3] / X[:, 3:]  # (n, 3) world points, each from one pair of views
         m, p, w = np.nonzero(pair_ok)
-        third = obs[m, :, w] & self.outside[p]  # (n, C) the views that saw it, outside the pair
-        i, cam = np.nonzero(third)
-        pc = np.einsum("nij,nj->ni", self.Pn[cam], np.c_[X[i], np.ones(len(i))])
+        if not len(m):
+            return
+        X = self._midpoints(x[m, pa[p], w], pa[p], x[m, pb[p], w], pb[p])  # (n, 3), each from one pair
+        i, cam = np.nonzero(obs[m, :, w] & self.outside[p])  # the views outside the pair that saw it
+        Xi = X[i]
+        pc = np.einsum("nij,nj->ni", self.Pn[cam][:, :, :3], Xi) + self.Pn[cam][:, :, 3]
         seen = x[m[i], cam, w[i]]
         r = seen - pc[:, :2] / pc[:, 2:]  # seen - predicted (radians, small angles)
-        ok = (pc[:, 2] > 0) & (np.hypot(r[:, 0], r[:, 1]) < MAX_RESIDUAL)
-        # image velocity of the seen points (central differences inside the window)
-        v = np.full_like(x, np.nan)
-        both = obs[..., 2:] & obs[..., :-2]
-        v[:, :, 1:-1] = np.where(both[..., None], (x[:, :, 2:] - x[:, :, :-2]) / 2, np.nan)
-        self._sync(cam[ok], r[ok], v[m[i], cam, w[i]][ok])
-        self.last_frame = frame = start + observed.shape[1] - 1
+        ok = (pc[:, 2] > 0) & (np.abs(r).max(axis=1) < MAX_RESIDUAL)
+        # image velocity of the seen points (central differences inside the window): the sync regression
+        vel = np.full_like(x, np.nan)
+        vel[:, :, 1:-1] = np.where((obs[..., 2:] & obs[..., :-2])[..., None], (x[:, :, 2:] - x[:, :, :-2]) / 2, np.nan)
+        v = vel[m[i], cam, w[i]]
+        good = ok & np.isfinite(v[:, 0])
+        for j, col in enumerate((np.ones(good.sum()), (v[good] ** 2).sum(1), (v[good] * r[good]).sum(1))):
+            self.sums[:, j] += np.bincount(cam[good], col, minlength=self.C)
         key = cam * len(pa) + p[i]
-        for k in np.unique(key[ok]):
-            sel = ok & (key == k)
-            if sel.sum() >= MIN_POINTS:
-                self._knock(int(k), frame, r[sel], X[i[sel]], np.c_[seen[sel], np.ones(sel.sum())])
-        self._check()
+        order = np.argsort(key[ok], kind="stable")
+        ks, rs, Xs, ss = key[ok][order], r[ok][order], X[i[ok]][order], seen[ok][order]
+        cut = np.flatnonzero(np.diff(ks)) + 1
+        for k, rr, XX, sn in zip(ks[np.r_[0, cut]], np.split(rs, cut), np.split(Xs, cut), np.split(ss, cut)):
+            if len(rr) >= MIN_POINTS:
+                self.meds[k, -1] = np.median(rr, axis=0)
+                self.points[k][-1] = (XX, sn)
 
-    def _sync(self, cam: np.ndarray, r: np.ndarray, v: np.ndarray) -> None:
-        good = np.isfinite(v).all(axis=1)
-        cam, r, v = cam[good], r[good], v[good]
-        add = np.stack([np.ones(len(cam)), (v * v).sum(1), (v * r).sum(1), np.zeros(len(cam)), np.zeros(len(cam))], 1)
-        np.add.at(self.sums, cam, add)
+    def _midpoints(self, xa: np.ndarray, a: np.ndarray, xb: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """(n, 2) normalised points of views ``a`` (n,) and ``b`` (n,) -> (n, 3) midpoints of the rays'
+        closest approach (Eq. 3's two-view case, closed form)."""
+        da = np.einsum("nij,nj->ni", self.Rt[a][:, :, :2], xa) + self.Rt[a][:, :, 2]
+        db = np.einsum("nij,nj->ni", self.Rt[b][:, :, :2], xb) + self.Rt[b][:, :, 2]
+        w0 = self.centres[a] - self.centres[b]
+        aa, bb, cc = (da * da).sum(1), (da * db).sum(1), (db * db).sum(1)
+        d, e = (da * w0).sum(1), (db * w0).sum(1)
+        den = aa * cc - bb * bb
+        with np.errstate(invalid="ignore", divide="ignore"):
+            s, t = (bb * e - cc * d) / den, (aa * e - bb * d) / den
+        return (self.centres[a] + s[:, None] * da + self.centres[b] + t[:, None] * db) / 2
 
-    def _knock(self, k: int, frame: int, r: np.ndarray, X: np.ndarray, seen: np.ndarray) -> None:
-        """Residuals (n, 2) of one camera x pair ``k`` in the window ending at ``frame``, kept for the step test."""
-        h = self.history[k]
-        h.append((frame, np.median(r, axis=0), r, X, seen))
-        del h[:-(self.n_base + self.n_recent)]
-
-    def _steps(self) -> tuple[np.ndarray, np.ndarray]:
-        """(C,) each camera's step: the last second's pooled median residual against the median of
-        the seconds before (radians; 0 while the history is short), and (C,) its threshold."""
-        n = len(self.history)
-        step, thr = np.zeros(n), np.full(n, np.inf)
-        for c, h in enumerate(self.history):
-            if len(h) < self.n_base + self.n_recent or h[-1][0] != self.last_frame:
-                continue
-            meds = np.array([m for _, m, *_ in h[:self.n_base]])
-            base = np.median(meds, axis=0)
-            scatter = 1.4826 * np.median(np.hypot(*(meds - base).T))
-            recent = h[self.n_base:]
-            half = len(recent) // 2
-            step[c] = min(np.hypot(*(np.median(np.concatenate([x[2] for x in part]), axis=0) - base))
-                          for part in (recent, recent[:half], recent[half:]))  # the whole second moved, both halves
-            thr[c] = max(np.radians(MIN_DEG), NOISE_FACTOR * scatter / np.sqrt(half))
-        return step, thr
+    def _steps(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per camera x pair: the step of the last second's median residual against the median of
+        the seconds before (radians; 0 where not judged), its threshold, and the baseline (2,)."""
+        nb = self.n_base
+        base_meds, recent = self.meds[:, :nb], self.meds[:, nb:]
+        base = _nanmedian(base_meds)  # (Nk, 2)
+        scatter = 1.4826 * _nanmedian(np.linalg.norm(base_meds - base[:, None], axis=2))
+        dev = np.linalg.norm(recent - base[:, None], axis=2)  # (Nk, n_recent)
+        ready = (np.isfinite(base_meds[..., 0]).sum(1) >= nb - 1) & np.isfinite(dev).all(axis=1)
+        step = np.where(ready, np.nan_to_num(dev).min(axis=1), 0.0)  # every sample of the last second moved
+        thr = np.where(ready, np.maximum(np.radians(MIN_DEG), NOISE_FACTOR * np.nan_to_num(scatter)), np.inf)
+        return step, thr, base
 
     def _check(self) -> None:
         """A knock: the camera whose step (the smallest over the pairs that judge it) passes its
         threshold and is clearly the largest."""
-        step_k, thr_k = self._steps()
+        step_k, thr_k, base_k = self._steps()
         Np = len(self.pairs[0])
-        ratio = (step_k / thr_k).reshape(self.C, Np)
         ready = np.isfinite(thr_k).reshape(self.C, Np)
-        if not ready.any(axis=1).sum() >= 2:
+        if ready.any(axis=1).sum() < 2:
             return
-        ratio = np.where(ready, ratio, np.inf).min(axis=1)  # each camera: its least-moved pair
-        ratio[~ready.any(axis=1)] = 0.0
+        ratio_k = np.where(ready, (step_k / thr_k).reshape(self.C, Np), np.inf)
+        ratio = np.where(ready.any(axis=1), ratio_k.min(axis=1), 0.0)  # each camera: its least-moved pair
         c = int(np.argmax(ratio))
         others = np.delete(ratio, c)
         if not ratio[c] > 1 or (len(others) and ratio[c] < SEPARATION * others.max()):
             return
-        k = c * Np + int(np.argmin(np.where(ready[c], step_k.reshape(self.C, Np)[c] / thr_k.reshape(self.C, Np)[c], np.inf)))
-        step, thr = step_k, thr_k
-        h = self.history[k]
-        base = np.median(np.array([m for _, m, *_ in h[:self.n_base]]), axis=0)
-        dev = np.array([np.hypot(*(m - base)) for _, m, *_ in h])
-        moved = dev > step[k] / 2
-        first = self.n_base  # the first window of the run of moved windows reaching into the last second
+        k = c * Np + int(np.argmin(ratio_k[c]))
+        dev = np.linalg.norm(self.meds[k] - base_k[k], axis=1)
+        moved = dev > step_k[k] / 2  # (NaN: not moved)
+        first = self.n_base  # the first sample of the run of moved samples reaching into the last second
         while first > 0 and moved[first - 1]:
             first -= 1
-        first += int(np.argmax(moved[first:]))
-        started = h[first][0] - self.step + 1
+        started = int(self.frames[first]) - self.step + 1
         frame = self.last_frame
-        # the turn: the rotation fitted to the moved windows' points against the one fitted before
+        # the turn: the rotation fitted to the moved samples' points against the one fitted before
         # (which holds the calibration's own small error); a step that no rotation explains is not a knock
-        R = self._refit(c, h[max(first, self.n_base):]) @ self._refit(c, h[:first]).T
-        if not _degrees(R) <= CONSISTENT * np.degrees(step[k]) + MIN_DEG:
-            return  # (judged again at the next window: a knock's turn is fitted well once its second has passed)
-        event = {"camera": self.rig.names[c], "start_frame": int(started), "detected_frame": int(frame),
+        pts = self.points[k]
+        before, after = [q for q in pts[:first] if q is not None], [q for q in pts[first:] if q is not None]
+        if not before or not after:
+            return
+        R = self._refit(c, after) @ self._refit(c, before).T
+        if not _degrees(R) <= CONSISTENT * np.degrees(step_k[k]) + MIN_DEG:
+            return  # (judged again at the next sample: a knock's turn is fitted well once its second has passed)
+        event = {"camera": self.rig.names[c], "start_frame": started, "detected_frame": int(frame),
                  "start_seconds": round((started - self.first) / self.fps, 2),
-                 "degrees": round(float(np.degrees(step[k])), 2), "turn_degrees": round(_degrees(R), 2)}
+                 "degrees": round(float(np.degrees(step_k[k])), 2), "turn_degrees": round(_degrees(R), 2)}
         if self.recalibrate:
             prev = self.turns.get(c, (0, np.eye(3)))[1]
             self.turns[c] = (int(frame) + 1, R @ prev)
@@ -219,14 +239,16 @@ class DriftMonitor:
                       f"({event['start_seconds']} s): knocked? " + (f"its rotation was re-estimated "
                       f"({event['rotation_degrees']} deg) and applied from frame {frame + 1}" if self.recalibrate
                       else "recalibrate it"), GymtrackWarning, stacklevel=2)
-        for past in self.history:  # every camera's residuals moved with it: a new baseline after the move
-            past.clear()
+        self.meds[:] = np.nan  # every camera's residuals moved with it: a new baseline after the move
+        for q in self.points:
+            q[:] = [None] * len(q)
 
-    def _refit(self, c: int, windows: list[tuple]) -> np.ndarray:
+    def _refit(self, c: int, samples: list[tuple]) -> np.ndarray:
         """The rotation of camera ``c`` against its calibration, from the (n, 3) world points the
-        other views triangulated and the (n, 3) rays it saw them on (camera coordinates) of ``windows``."""
-        X = np.concatenate([x[3] for x in windows])
-        seen = np.concatenate([x[4] for x in windows])
+        other views triangulated and the (n, 3) rays it saw them on (camera coordinates) of ``samples``."""
+        X = np.concatenate([q[0] for q in samples])
+        seen = np.concatenate([q[1] for q in samples])
+        seen = np.concatenate([seen, np.ones((len(seen), 1))], axis=1)
         cam = self.rig[c]
         return fit_rotation((X - cam.centre) @ cam.R.T, seen)
 
