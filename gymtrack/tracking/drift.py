@@ -1,14 +1,16 @@
 """The venue check: each camera's residuals watched for a knocked camera and for a camera out of sync.
 
-Beyond the paper, which assumes a fixed, synchronised rig (Section III-B). For every window the
-tracker's multi-view clusters of three views or more give leave-one-out residuals: the point that
-the *other* views triangulate (Eq. 3, normalised image coordinates), projected into the view left
-out, minus where that view saw it -- an angle (radians) per camera, point and frame.
+Beyond the paper, which assumes a fixed, synchronised rig (Section III-B). Every third window
+(:data:`EVERY_WINDOWS`) the tracker's clusters of three views or more give residuals: the point
+that one non-opposite *pair* of the other views triangulates (Eq. 3's two-view case, midpoint of
+the rays, normalised image coordinates), projected into a third view, minus where that view saw
+it -- an angle (radians) per camera, pair, point and frame. A camera is judged by each pair
+without it, and by its least-moved pair, so that a knocked camera does not drag the others.
 
-- A knocked camera (turned about its centre) moves all its points by the same angle: the median
+- A knocked camera (turned about its centre) moves all its points by the same angle: its median
   residual over the last second steps away from its median of the five seconds before, clearly
-  more than the other cameras' (which it drags along a little). Then :class:`DriftMonitor` reports the camera, the frame it started,
-  the size in degrees, and (``recalibrate``) re-estimates the camera's rotation from the points
+  more than the other cameras', and a rotation fitted to the points explains the step. Then
+  :class:`DriftMonitor` reports the camera, the frame it started, the size in degrees, and (``recalibrate``) re-estimates the camera's rotation from the points
   the other views triangulate (a rotation-only fit of the rays, Kabsch / Wahba's problem) and
   maps that camera's later boxes back into the calibrated view (``correct``), and the boxes the
   tracker reports back out (``uncorrect``): a rotation about the centre is the image homography
@@ -38,8 +40,8 @@ MIN_DEG = 0.3  # the smallest step reported (below: how much the box centres' ag
 NOISE_FACTOR = 3.0  # ... or this many times the scatter of one sample's median residual
 CONSISTENT = 2.0  # the fitted turn may be at most this many times the step (plus MIN_DEG)
 SEPARATION = 1.5  # the knocked camera's step against the largest of the others' (which it drags along)
-MAX_RESIDUAL = 0.05  # radians (3 deg): a larger leave-one-out residual is a wrong association, not drift
-MIN_POINTS = 8  # points of a camera in a window for its median to count
+MAX_RESIDUAL = 0.05  # radians (3 deg): a larger residual is a wrong association, not drift
+MIN_POINTS = 8  # points of a camera x pair in a sample for its median to count
 
 
 def turn_pixels(cam: Camera, uv: np.ndarray, rotation: np.ndarray) -> np.ndarray:
