@@ -14,7 +14,7 @@ apparatus, n_cam 3 and 4; other people are seen by all four cameras) get one fau
 
 Usage::
 
-    python benchmarks/bench_faults.py [--seconds 20] [--seeds 2] [--apparatus all] [--part sync|knock|both]
+    python benchmarks/bench_faults.py [--seconds 20] [--seeds 2] [--apparatus all] [--part sync|sync-only|knock|both]  (sync-only: no AED runs)
 """
 
 from __future__ import annotations
@@ -65,14 +65,14 @@ def main() -> None:
                 if n == 2:  # a two-camera venue: the opposite pair only
                     rig = rig.subset(rig.names[:2])
                     det = det.select(np.flatnonzero(det.camera < 2))
-                if a.part in ("sync", "both"):
+                if a.part in ("sync", "sync-only", "both"):
                     bad = desync_camera(det, cam, d)
                     res = estimate_offsets(bad, rig)
                     want = np.zeros(len(rig), int)
                     want[cam] = d
                     row = {"app": app, "seed": seed, "n_cam": n, "cam": cam, "offset": d, "found": res.offsets.tolist(),
                            "exact": bool(np.array_equal(res.offsets, want)), "conf": round(float(res.confidence[cam]), 2)}
-                    if n > 2:
+                    if n > 2 and a.part != "sync-only":
                         clean, _ = aed(sim, det)
                         fixed, _ = resynchronise(bad, rig)
                         late, _ = aed(sim, bad)

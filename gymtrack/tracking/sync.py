@@ -6,7 +6,7 @@ boxes leave the epipolar lines of the others' (Eq. 1). For every camera pair and
 ``d`` the cost is the mean over one view's boxes of the smallest Eq. 1 distance to the other
 view's boxes ``d`` frames later (capped, so people seen in one view only weigh the same at every
 shift); the offsets (camera 0 the reference, 0) are the joint choice over ``+-search`` frames
-that minimises the sum of the pairs' costs, each pair's curve scaled by its median and weighted by its depth. Sub-frame: a parabola through the joint cost at the
+that minimises the sum of the pairs' costs, each pair's curve scaled by its median and weighted by its depth, plus a small cost per camera moved. Sub-frame: a parabola through the joint cost at the
 best offset and its neighbours. Confidence per camera: how much worse its best offset two or more frames away is,
 as a share of the cost's spread (0: a tie, the data cannot decide; 1: one offset stands out).
 
@@ -32,6 +32,7 @@ from ..geometry.epipolar import fundamental_matrices
 __all__ = ["SyncResult", "estimate_offsets", "pair_costs"]
 
 CAP = 1.0  # Eq. 1 distance a box with no partner counts for (the same person: about 0.1-0.3)
+PRIOR = 0.03  # the cost of moving a camera, as a share of a pair's mean cost depth
 LOW_CONFIDENCE = 0.05  # below this a camera's offset is reported as undecided
 
 
@@ -151,6 +152,10 @@ def estimate_offsets(det: Detections, rig: Rig, search: int = 10, max_boxes: int
     total = np.zeros(len(offs))
     for i, j in itertools.combinations(range(C), 2):
         total += norm[i, j, offs[:, j] - offs[:, i] + 2 * search]
+    # a small cost for every camera moved: most cameras of a venue are in sync, and a pair's curve
+    # can lean a frame off by how its views see the same people (box centres are not one 3D point)
+    depth = np.array([norm[i, j].max() - norm[i, j].min() for i, j in itertools.combinations(range(C), 2)])
+    total += PRIOR * depth.mean() * np.count_nonzero(offs, axis=1)
     best = offs[int(np.argmin(total))]
     curves = np.zeros((C, len(cand)))
     for c in range(1, C):  # the joint cost over camera c's offset, the others at their best
