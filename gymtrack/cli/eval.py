@@ -18,6 +18,7 @@ from rich.console import Console
 from rich.table import Table
 
 from gymtrack.cli import app
+from gymtrack.cli.locking import force_routine_option, hold_for_command, wait_option
 from gymtrack.cli.options import calibration_format_option, units_option
 
 console = Console()
@@ -71,11 +72,14 @@ def eval_cmd(
     mot: bool = typer.Option(True, "--mot/--no-mot", help="also score all people (MOTA, IDF1; the slowest part)"),
     calibration_format: Optional[str] = calibration_format_option(),
     units: Optional[str] = units_option(),
+    force: bool = force_routine_option(),
+    wait: float = wait_option(),
 ) -> None:
     """Score an output folder against the routine's ground truth (target and all people)."""
     from gymtrack.eval.score import score_output
 
     opts = {} if units is None else {"units": units}
+    hold_for_command(out, "eval", wait, routine, force, shared=True)  # no writer replaces OUT while it is scored
     s = score_output(routine, out, mot=mot, calibration_format=calibration_format, **opts)
     if as_json:
         s = {k: v for k, v in s.items() if k != "row"}

@@ -28,6 +28,7 @@ from rich.table import Table
 from gymtrack.cli import app
 from gymtrack.cli.options import (calibration_format_option, overwrite_option, read_routine, silent_seconds_option,
                                   strict_option, units_option)
+from gymtrack.cli.locking import hold, wait_option
 from gymtrack.cli.report import REPORTER, interrupts
 from gymtrack.modes import DEFAULT_MODE, MODES
 
@@ -85,18 +86,20 @@ def track(
     overwrite: bool = overwrite_option(),
     strict: bool = strict_option(),
     silent_seconds: float = silent_seconds_option(),
+    wait: float = wait_option(),
 ) -> None:
     """Track a routine: 3D tracks, per-view boxes and the target gymnast (paper Section III)."""
     from gymtrack.cli.system import compile_notice
     from gymtrack.errors import InputError
-    from gymtrack.formats.atomic import atomic_output
+    from gymtrack.formats.atomic import atomic_output, check_output_folder
     from gymtrack.formats.outputs import write_outputs
     from gymtrack.tracking.offline import track_detections
 
     if mode not in MODES:
         raise InputError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}", field="--mode")
     inputs = {"routine": Path(routine).absolute(), "mode": mode, "calibration_format": calibration_format, "units": units}
-    with interrupts(), atomic_output(out, "track", inputs, overwrite=overwrite, protect=[routine]) as staging:
+    with interrupts(), hold(check_output_folder(out, overwrite, [routine]), "track", wait), \
+            atomic_output(out, "track", inputs, overwrite=overwrite, protect=[routine]) as staging:
         r, checks = read_routine(routine, calibration_format, units, silent_seconds)
         notice = compile_notice()
         if notice:
