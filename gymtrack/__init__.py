@@ -20,11 +20,12 @@ The tracker's names are imported on first use, so ``import gymtrack`` stays ligh
 
 __version__ = "0.1.0"
 
-from .detections import Detections  # noqa: E402
 from .errors import GymtrackError, InputError  # noqa: E402
 
-#: public names loaded on first access: name -> module
+#: public names loaded on first access: name -> module (also Detections: numpy is not imported
+#: before the command line has put its Ctrl-C handler in place)
 _LAZY = {
+    "Detections": "gymtrack.detections",
     "Tracker": "gymtrack.tracking.tracker",
     "TrackerOutput": "gymtrack.tracking.types",
     "track_detections": "gymtrack.tracking.offline",

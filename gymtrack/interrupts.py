@@ -24,7 +24,7 @@ from __future__ import annotations
 import signal
 import threading
 
-__all__ = ["install", "uninstall", "pending", "check", "reset", "defer_during_numba", "quiet"]
+__all__ = ["install", "uninstall", "pending", "check", "reset", "defer_during_numba", "quiet", "settle"]
 
 _state = {"pending": False, "depth": 0, "quiet": False, "installed": None, "listener": None}
 
@@ -68,6 +68,15 @@ def check() -> None:
     """Raise KeyboardInterrupt when an interrupt was recorded (it may have been swallowed on its way)."""
     if _state["pending"]:
         raise KeyboardInterrupt
+
+
+def settle() -> None:
+    """The program is ending: from now on a Ctrl-C is only recorded, then (for the interpreter's
+    teardown, when Python puts back the default action and a signal would kill the process) ignored.
+    Call :func:`pending` after it to know whether one came."""
+    _state["quiet"] = True
+    if _state["installed"] is not None and threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 class quiet:

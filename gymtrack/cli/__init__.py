@@ -7,6 +7,7 @@ heavy is imported, and a command's KeyboardInterrupt is turned into that line by
 
 from __future__ import annotations
 
+import os
 import sys
 
 from .. import interrupts as _interrupts
@@ -14,19 +15,38 @@ from .. import interrupts as _interrupts
 _interrupts.install()  # before the heavy imports (typer, rich, numpy, numba)
 
 
-def _interrupted(notes: str = "") -> None:
-    """The one line of an interrupted run, then exit 130 (a further Ctrl-C while printing is ignored)."""
+def _interrupted(notes: str = "", final: bool = False) -> None:
+    """The one line of an interrupted run, then exit 130 (a further Ctrl-C is only recorded).
+    ``final``: the program ends here (not a command run in-process by a test): ignore Ctrl-C from now on."""
+    if final:
+        _interrupts.settle()
     with _interrupts.quiet():
         sys.stderr.write(f"interrupted (Ctrl-C){': ' + notes if notes else ''}\n")
         sys.stderr.flush()
+    if final:
+        _exit_130()
     raise SystemExit(130)
+
+
+def _exit_130() -> None:
+    """Exit 130 now. Not through SystemExit: a KeyboardInterrupt once raised inside code an extension
+    ran during an import leaves CPython's flag "unhandled interrupt" set, and the interpreter would
+    then end by killing itself with SIGINT (status -2) whatever the exit code."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):
+            pass
+    os._exit(130)
 
 
 try:
     import typer
     from typer.core import TyperGroup
-except KeyboardInterrupt:
-    _interrupted("nothing was written")
+except BaseException:  # a KeyboardInterrupt, or what an import made of it (a RuntimeError from __set_name__...)
+    if _interrupts.pending():
+        _interrupted("nothing was written", final=True)
+    raise
 
 
 class _Group(TyperGroup):
@@ -44,6 +64,10 @@ class _Group(TyperGroup):
             return super().invoke(ctx)
         except KeyboardInterrupt as exc:
             _interrupted("; ".join(getattr(exc, "__notes__", [])))
+        except Exception as exc:  # what a library made of a KeyboardInterrupt (a RuntimeError...)
+            if _interrupts.pending() and not isinstance(exc, typer.Exit):
+                _interrupted("; ".join(getattr(exc, "__notes__", [])))
+            raise
 
 
 app = typer.Typer(
@@ -71,8 +95,10 @@ try:
     from . import options  # noqa: E402,F401  (first: its help patch applies to every command)
     from . import info, simulate, track, benchmark, pose, eval, fit_plane, detect, run, models, view, batch  # noqa: E402,F401
     _interrupts.defer_during_numba()  # numba is imported by now (geometry)
-except KeyboardInterrupt:
-    _interrupted("nothing was written")
+except BaseException:
+    if _interrupts.pending():
+        _interrupted("nothing was written", final=True)
+    raise
 
 
 def main() -> None:
@@ -88,15 +114,19 @@ def main() -> None:
     try:
         try:
             app()
-        except SystemExit as exc:  # typer ends every run so; a swallowed Ctrl-C must not end as success
-            if exc.code in (0, None) and _interrupts.pending():
+        except SystemExit as exc:  # typer ends every run so
+            _interrupts.settle()  # Python's teardown must not die of a late Ctrl-C
+            if exc.code in (0, None) and _interrupts.pending():  # one swallowed on its way: not a success
                 raise KeyboardInterrupt from None
+            if exc.code == 130:
+                _exit_130()
             raise
     except GymtrackError as exc:
+        _interrupts.settle()
         console = Console(stderr=True)
         console.print(f"[bold red]error:[/] {escape(str(exc))}", highlight=False, soft_wrap=True)
         for note in getattr(exc, "__notes__", []):
             console.print(f"  {escape(note)}", highlight=False, soft_wrap=True)
         sys.exit(STRICT_EXIT if isinstance(exc, StrictFailure) else 2)
     except KeyboardInterrupt as exc:  # outside a command's own handling (e.g. while printing its summary)
-        _interrupted("; ".join(getattr(exc, "__notes__", [])))
+        _interrupted("; ".join(getattr(exc, "__notes__", [])), final=True)
