@@ -10,6 +10,7 @@ the whole run. Prints one line per round and exits 1 if any failed (with its out
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 import tempfile
@@ -28,12 +29,13 @@ def main(n: int = 10) -> int:
         for k in range(1, n + 1):
             t0 = time.perf_counter()
             p = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "tests/test_cli_outputs.py",
-                                "-k", "ctrl_c"], cwd=REPO, env=env, capture_output=True, text=True)
+                                "-k", "ctrl_c"], cwd=REPO, env=env, capture_output=True, text=True,
+                               preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
             last = (p.stdout.strip().splitlines() or ["?"])[-1]
             print(f"{name:>40} round {k:2d}: {last} ({time.perf_counter() - t0:.0f} s)", flush=True)
             if p.returncode:
                 failed += 1
-                print(p.stdout[-4000:], p.stderr[-2000:])
+                print(p.stdout[-12000:], p.stderr[-2000:])
     print(f"{failed} failed rounds of {2 * n}")
     return 1 if failed else 0
 

@@ -247,7 +247,9 @@ def test_ctrl_c_one_line_exit_130_nothing_half_written(routine, tmp_path, moment
     if moment.startswith("NUMBA_CACHE_DIR"):
         env["NUMBA_CACHE_DIR"] = str(cache)  # fresh: this run compiles
     proc = subprocess.Popen([sys.executable, "-m", "gymtrack.cli", "track", str(routine), "-o", str(out), "--mode", "plane"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+                            # as from a terminal, also when the suite runs in the background (SIGINT ignored)
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     start = time.monotonic()
     if moment == "imports":
         _signal_when(proc, lambda: time.monotonic() - start > 0.25, 0.0)

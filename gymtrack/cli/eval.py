@@ -66,6 +66,7 @@ def score_table(s: dict) -> Table:
 
 @app.command("eval")
 def eval_cmd(
+    ctx: typer.Context,
     routine: Path = typer.Argument(..., help="routine folder with gt/ (persons_3d.csv, boxes_2d/)"),
     out: Path = typer.Argument(..., help="output folder written by `gymtrack track --out`"),
     as_json: bool = typer.Option(False, "--json", help="print the scores as JSON instead of a table"),
@@ -79,7 +80,7 @@ def eval_cmd(
     from gymtrack.eval.score import score_output
 
     opts = {} if units is None else {"units": units}
-    hold_for_command(out, "eval", wait, routine, force, shared=True)  # no writer replaces OUT while it is scored
+    hold_for_command(ctx, out, "eval", wait, routine, force, shared=True)  # no writer replaces OUT while it is scored
     s = score_output(routine, out, mot=mot, calibration_format=calibration_format, **opts)
     if as_json:
         s = {k: v for k, v in s.items() if k != "row"}

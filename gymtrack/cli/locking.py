@@ -36,16 +36,14 @@ def hold(out: Path, command: str, wait: float = 0.0, shared: bool = False) -> It
         yield
 
 
-def hold_for_command(out: Path, command: str, wait: float = 0.0, routine: Path | None = None, force: bool = False,
-                     shared: bool = False) -> None:
+def hold_for_command(ctx: typer.Context, out: Path, command: str, wait: float = 0.0, routine: Path | None = None,
+                     force: bool = False, shared: bool = False) -> None:
     """Hold ``out`` until the running command ends (a resource of click's context), then check that
     its marker records ``routine`` (unless ``force``). A missing folder is left to the command's own error."""
-    import click
-
     from gymtrack.formats.atomic import check_routine
 
     if not Path(out).is_dir():
         return
-    click.get_current_context().with_resource(hold(out, command, wait, shared))
+    ctx.with_resource(hold(out, command, wait, shared))
     if routine is not None:
         check_routine(out, routine, force)

@@ -69,6 +69,7 @@ def pose_summary_table(summary: dict, title: str = "Pose stage") -> Table:
 
 @app.command()
 def pose(
+    ctx: typer.Context,
     routine: Path = typer.Argument(..., help="routine folder (cameras.yaml, scene.yaml, detections/, keypoints/ or gt/)"),
     out: Path = typer.Argument(..., help="the track output folder of `gymtrack track`; poses are written into it"),
     keypoints: Optional[Path] = typer.Option(None, "--keypoints", "-k", help="2D poses folder (default: ROUTINE/keypoints)"),
@@ -97,7 +98,7 @@ def pose(
     use_model = model is not None or models_yaml is not None
     if sum([simulated_model, keypoints is not None, use_model]) > 1:
         raise InputError("give one of --keypoints, --simulated-model, --model", field="--keypoints")
-    hold_for_command(out, "pose", wait, routine, force)  # from the first read of OUT to the last write
+    hold_for_command(ctx, out, "pose", wait, routine, force)  # from the first read of OUT to the last write
     r, _ = read_routine(routine, calibration_format, units)
     result = read_track_result(out, r.rig.names)
     if use_model:
