@@ -138,7 +138,7 @@ DEMO_MODES = ("cascade", "cascade+", "triangulation")
 @app.command()
 def demo(
     out: Optional[Path] = typer.Option(None, "--out", "-o", help="also write the routine and both results here"),
-    seconds: float = typer.Option(30.0, "--seconds", "-s", help="length of the simulated routine (10-600 s)"),
+    seconds: float = typer.Option(30.0, "--seconds", "-s", help="length of the simulated routine (7 s to an hour)"),
     seed: int = typer.Option(0, "--seed", help="simulation seed"),
 ) -> None:
     """Simulate uneven bars seen by two opposite cameras; compare the cascade with triangulation (and cascade+)."""
