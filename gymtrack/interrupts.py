@@ -29,11 +29,26 @@ __all__ = ["install", "uninstall", "pending", "check", "reset", "defer_during_nu
 _state = {"pending": False, "depth": 0, "quiet": False, "installed": None, "listener": None}
 
 
+#: Functions Python calls where an exception cannot propagate (it is printed as "ignored" and lost):
+#: finalizers and the weak-reference callbacks of the import system.
+_NO_RAISE = frozenset({"__del__", "cb", "_remove", "_release_save"})
+
+
 def _handler(signum, frame) -> None:
     _state["pending"] = True
     if _state["depth"] > 0 or _state["quiet"]:
         return  # inside numba's compiler (or while reporting): raised when it ends (see _Deferrer)
+    if frame is not None and frame.f_code.co_name in _NO_RAISE:
+        _redeliver()  # raising here would be swallowed: signal again in a moment, outside the callback
+        return
     raise KeyboardInterrupt
+
+
+def _redeliver(delay: float = 0.02) -> None:
+    main = threading.main_thread().ident
+    t = threading.Timer(delay, lambda: signal.pthread_kill(main, signal.SIGINT))
+    t.daemon = True
+    t.start()
 
 
 def install() -> bool:
