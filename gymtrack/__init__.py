@@ -20,6 +20,13 @@ The tracker's names are imported on first use, so ``import gymtrack`` stays ligh
 
 __version__ = "0.1.0"
 
+import sys as _sys  # noqa: E402
+
+if _sys.orig_argv[1:3] == ["-m", "gymtrack.cli"] or _sys.argv[0].endswith(("/gymtrack", "\\gymtrack.exe")):
+    from . import interrupts as _interrupts  # the command line: Ctrl-C handled from the first line on
+
+    _interrupts.install()
+
 from .errors import GymtrackError, InputError  # noqa: E402
 
 #: public names loaded on first access: name -> module (also Detections: numpy is not imported

@@ -222,6 +222,14 @@ def test_sigkill_leaves_old_or_new_outputs_complete(routine, tmp_path):
     print(f"kills: {seen} (run {work:.2f} s after its staging folder appeared)")
 
 
+def _mapped(pid: int, name: str) -> bool:
+    """True when process ``pid`` has a shared library of ``name`` loaded (Linux)."""
+    try:
+        return name in Path(f"/proc/{pid}/maps").read_text()
+    except OSError:
+        return False
+
+
 def _signal_when(proc: subprocess.Popen, ready, extra: float) -> None:
     """SIGINT to ``proc`` ``extra`` seconds after ``ready()`` first holds (or when the process ended)."""
     while proc.poll() is None and not ready():
@@ -251,8 +259,8 @@ def test_ctrl_c_one_line_exit_130_nothing_half_written(routine, tmp_path, moment
                             # as from a terminal, also when the suite runs in the background (SIGINT ignored)
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     start = time.monotonic()
-    if moment == "imports":
-        _signal_when(proc, lambda: time.monotonic() - start > 0.25, 0.0)
+    if moment == "imports":  # numpy is being loaded: gymtrack's code runs (not Python's own start-up)
+        _signal_when(proc, lambda: _mapped(proc.pid, "numpy") or time.monotonic() - start > 20, 0.0)
     elif moment == "default cache":  # reading the routine or loading the cached kernels
         _signal_when(proc, lambda: bool(list(tmp_path.glob(".out.gymtrack-tmp-*"))), 0.05)
     else:  # a first kernel is compiled and cached; the others are being compiled

@@ -42,8 +42,8 @@ ROUTINE_NEEDS: dict[str, tuple[float, str]] = {
 MIN_SECONDS = min(v[0] for v in ROUTINE_NEEDS.values())
 MAX_SECONDS = 3600.0
 
-#: Peak memory of the simulator per simulated second (measured: 600 s of uneven bars, 4 cameras).
-BYTES_PER_SECOND = 7.0e6
+#: Peak memory of the simulator per simulated second (measured: 600 s of uneven bars, 4 cameras: 4.6 GB).
+BYTES_PER_SECOND = 7.7e6
 
 
 def memory_needed(seconds: float) -> float:
