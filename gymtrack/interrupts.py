@@ -24,9 +24,21 @@ from __future__ import annotations
 import signal
 import threading
 
-__all__ = ["install", "uninstall", "pending", "check", "reset", "defer_during_numba", "quiet", "settle"]
+__all__ = ["install", "uninstall", "pending", "check", "reset", "defer_during_numba", "quiet", "settle",
+           "record_outcome", "outcome"]
 
-_state = {"pending": False, "depth": 0, "quiet": False, "installed": None, "listener": None}
+_state = {"pending": False, "depth": 0, "quiet": False, "installed": None, "listener": None, "outcome": None}
+
+
+def record_outcome(text: str) -> None:
+    """What the outputs are now (``"the new outputs were complete and are in OUT"``): said by the
+    interrupted line of a Ctrl-C that lands after it, outside the block that wrote them."""
+    _state["outcome"] = text
+
+
+def outcome() -> str:
+    """The last recorded outcome, or that no outputs were written."""
+    return _state["outcome"] or "no outputs were written"
 
 
 #: Functions Python calls where an exception cannot propagate (it is printed as "ignored" and lost):
@@ -74,9 +86,10 @@ def pending() -> bool:
 
 
 def reset() -> None:
-    """Forget a recorded interrupt (at the start of a command run in-process)."""
+    """Forget a recorded interrupt and outcome (at the start of a command run in-process)."""
     _state["pending"] = False
     _state["quiet"] = False
+    _state["outcome"] = None
 
 
 def check() -> None:

@@ -13,6 +13,7 @@ import os
 import subprocess
 import sys
 import textwrap
+import threading
 import time
 from pathlib import Path
 
@@ -47,25 +48,35 @@ def routines(tmp_path_factory) -> tuple[Path, Path, Path]:
     return a, b, out
 
 
-def _holder_process(out: Path, command: str, seconds: float) -> subprocess.Popen:
-    """Another process holding ``out``'s lock for ``seconds`` (prints 'held' once it does)."""
+def _holder_process(out: Path, command: str) -> subprocess.Popen:
+    """Another process holding ``out``'s lock until a line arrives on its stdin (prints 'held' once it holds it)."""
     code = textwrap.dedent(f"""
-        import sys, time
+        import sys
         from gymtrack.formats.folder_lock import folder_lock
         with folder_lock({str(out)!r}, {command!r}):
             print("held", flush=True)
-            time.sleep({seconds})
+            sys.stdin.readline()
     """)
-    p = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True, env=_env())
+    p = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=_env())
     assert p.stdout.readline().strip() == "held"
     return p
+
+
+def _release_later(p: subprocess.Popen, seconds: float) -> threading.Timer:
+    def release():
+        p.stdin.write("\n")
+        p.stdin.flush()
+
+    t = threading.Timer(seconds, release)
+    t.start()
+    return t
 
 
 # ------------------------------------------------------------------ the lock
 def test_second_holder_refused_naming_the_first_then_waits(tmp_path):
     out = tmp_path / "out"
     out.mkdir()
-    p = _holder_process(out, "pose", 1.5)
+    p = _holder_process(out, "pose")
     try:
         with pytest.raises(FolderBusy) as e:
             with folder_lock(out, "track"):
@@ -74,11 +85,11 @@ def test_second_holder_refused_naming_the_first_then_waits(tmp_path):
         assert f"pid {p.pid}" in msg and "gymtrack pose" in msg and "since" in msg and str(out) in msg
         assert holder(out)["pid"] == p.pid
         told = []
-        t0 = time.monotonic()
-        with folder_lock(out, "track", wait=30, notify=told.append):  # waits for the holder to end
-            assert p.poll() is not None  # it had to end first
+        _release_later(p, 1.0)
+        with folder_lock(out, "track", wait=60, notify=told.append):  # waits for the holder to end
+            assert p.wait(timeout=10) == 0  # it had ended first
             assert holder(out)["command"] == "track" and holder(out)["pid"] == os.getpid()
-        assert time.monotonic() - t0 < 25 and len(told) == 1 and f"pid {p.pid}" in told[0]
+        assert len(told) == 1 and f"pid {p.pid}" in told[0]
     finally:
         p.kill()
         p.wait()
@@ -114,7 +125,7 @@ def test_stale_lock_of_dead_process_is_taken_over(tmp_path):
 def test_track_and_pose_refuse_while_another_command_holds_the_folder(routines):
     a, _, out = routines
     before = checksums(out)
-    p = _holder_process(out, "track", 30)
+    p = _holder_process(out, "track")
     try:
         for args in (["track", str(a), "--out", str(out)], ["pose", str(a), str(out), "--simulated-model"],
                      ["eval", str(a), str(out), "--no-mot"]):
@@ -130,7 +141,7 @@ def test_track_and_pose_refuse_while_another_command_holds_the_folder(routines):
 def test_pose_waits_for_a_running_track(routines, tmp_path):
     """A track run replacing the folder holds it from start to swap: pose started meanwhile refuses
     (no poses of the old tracks beside the new tracks); with --wait it runs after it, on the new tracks."""
-    a, _, out0 = routines
+    a, _, _ = routines
     out = tmp_path / "out"
     assert runner.invoke(app, ["track", str(a), "--out", str(out), "--mode", "plane"]).exit_code == 0
     proc = subprocess.Popen([sys.executable, "-m", "gymtrack.cli", "track", str(a), "-o", str(out)],

@@ -63,10 +63,10 @@ class _Group(TyperGroup):
         try:
             return super().invoke(ctx)
         except KeyboardInterrupt as exc:
-            _interrupted("; ".join(getattr(exc, "__notes__", [])))
+            _interrupted("; ".join(getattr(exc, "__notes__", [])) or _interrupts.outcome())
         except Exception as exc:  # what a library made of a KeyboardInterrupt (a RuntimeError...)
             if _interrupts.pending() and not isinstance(exc, typer.Exit):
-                _interrupted("; ".join(getattr(exc, "__notes__", [])))
+                _interrupted("; ".join(getattr(exc, "__notes__", [])) or _interrupts.outcome())
             raise
 
 
@@ -129,4 +129,4 @@ def main() -> None:
             console.print(f"  {escape(note)}", highlight=False, soft_wrap=True)
         sys.exit(STRICT_EXIT if isinstance(exc, StrictFailure) else 2)
     except KeyboardInterrupt as exc:  # outside a command's own handling (e.g. while printing its summary)
-        _interrupted("; ".join(getattr(exc, "__notes__", [])), final=True)
+        _interrupted("; ".join(getattr(exc, "__notes__", [])) or _interrupts.outcome(), final=True)

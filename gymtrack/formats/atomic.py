@@ -279,6 +279,7 @@ def _atomic_output(out: Path, command: str, inputs: Mapping[str, Any] | None) ->
         with _no_sigint():
             old = _swap_in(staging, out)
             swapped = True
+            interrupts.record_outcome(f"the new outputs were complete and are in {out}")
         if old is not None:
             shutil.rmtree(old, ignore_errors=True)
     except BaseException as exc:
@@ -350,6 +351,7 @@ def _atomic_update(out: Path, command: str, inputs: Mapping[str, Any] | None, ma
                 {"command": command, "time": _now(), "inputs": _jsonable(inputs), "files": sorted(new_sums)}
             )
             _write_json_atomic(out / MARKER, marker)
+            interrupts.record_outcome(f"the {command} outputs were complete and are in {out}")
     except BaseException as exc:
         if is_disk_full(exc):
             full = disk_full_error(out, staging, f"the {command} outputs")
