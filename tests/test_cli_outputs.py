@@ -271,7 +271,7 @@ def test_ctrl_c_one_line_exit_130_nothing_half_written(routine, tmp_path, moment
     assert notice == "" or (notice.startswith("first run: compiling") and notice.endswith(")")), stdout
     text = stderr.strip().splitlines()
     assert len(text) == 1 and "interrupted" in text[0], text
-    assert ("untouched" in text[0] or "nothing was written" in text[0]), text
+    assert "untouched" in text[0] or "no outputs were written" in text[0], text
     assert checksums(out) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no staging folder, no lock file
     assert json.loads((out / MARKER).read_text())["inputs"]["mode"] == DEFAULT_MODE

@@ -45,7 +45,7 @@ try:
     from typer.core import TyperGroup
 except BaseException:  # a KeyboardInterrupt, or what an import made of it (a RuntimeError from __set_name__...)
     if _interrupts.pending():
-        _interrupted("nothing was written", final=True)
+        _interrupted("no outputs were written", final=True)
     raise
 
 
@@ -57,7 +57,7 @@ class _Group(TyperGroup):
         try:
             return super().make_context(*args, **kwargs)
         except KeyboardInterrupt:
-            _interrupted("nothing was written")
+            _interrupted("no outputs were written")
 
     def invoke(self, ctx):
         try:
@@ -97,7 +97,7 @@ try:
     _interrupts.defer_during_numba()  # numba is imported by now (geometry)
 except BaseException:
     if _interrupts.pending():
-        _interrupted("nothing was written", final=True)
+        _interrupted("no outputs were written", final=True)
     raise
 
 
