@@ -19,6 +19,7 @@ from rich.table import Table
 
 from gymtrack.cli import app
 from gymtrack.cli.options import calibration_format_option, calibration_option, keypoints_option, units_option
+from gymtrack.cli.locking import force_routine_option, hold_for_command, wait_option
 
 console = Console()
 
@@ -93,6 +94,7 @@ def _judging_rows(t: Table, j: dict) -> None:
 
 @app.command("eval")
 def eval_cmd(
+    ctx: typer.Context,
     routine: Path = typer.Argument(..., help="routine folder with gt/ (persons_3d.csv, boxes_2d/)"),
     out: Path = typer.Argument(..., help="output folder written by `gymtrack track --out`"),
     as_json: bool = typer.Option(False, "--json", help="print the scores as JSON instead of a table"),
@@ -101,12 +103,15 @@ def eval_cmd(
     units: Optional[str] = units_option(),
     calibration: Optional[Path] = calibration_option(),
     keypoints: Optional[Path] = keypoints_option(),
+    force: bool = force_routine_option(),
+    wait: float = wait_option(),
 ) -> None:
     """Score an output folder against the routine's ground truth (target and all people)."""
     from gymtrack.eval.score import score_output
 
     opts = {} if units is None else {"units": units}
     opts.update({k: v for k, v in (("calibration", calibration), ("keypoints", keypoints)) if v is not None})
+    hold_for_command(ctx, out, "eval", wait, routine, force, shared=True)  # no writer replaces OUT while it is scored
     s = score_output(routine, out, mot=mot, calibration_format=calibration_format, **opts)
     if as_json:
         s = {k: v for k, v in s.items() if k != "row"}

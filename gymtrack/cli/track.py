@@ -30,6 +30,7 @@ from gymtrack.cli import app
 from gymtrack.cli.options import (calibration_format_option, calibration_option, keypoints_option, skeleton_option,
                                   overwrite_option, read_routine, silent_seconds_option,
                                   strict_option, units_option)
+from gymtrack.cli.locking import hold, wait_option
 from gymtrack.cli.report import REPORTER, interrupts
 from gymtrack.modes import DEFAULT_MODE, INGREDIENTS
 
@@ -94,11 +95,12 @@ def track(
                                                 f"(repeat the option): {', '.join(INGREDIENTS)}"),
     adding: Optional[list[str]] = typer.Option(None, "--adding", help="switch this ingredient on as cascade+ has it "
                                                "(repeat the option; names as --without)"),
+    wait: float = wait_option(),
 ) -> None:
     """Track a routine: 3D tracks, per-view boxes and the target gymnast (paper Section III)."""
     from gymtrack.cli.system import compile_notice
     from gymtrack.errors import InputError
-    from gymtrack.formats.atomic import atomic_output
+    from gymtrack.formats.atomic import atomic_output, check_output_folder
     from gymtrack.formats.outputs import write_outputs
     from gymtrack.tracking.offline import track_detections
 
@@ -112,7 +114,8 @@ def track(
               "calibration": calibration and Path(calibration).absolute(), "keypoints": keypoints and Path(keypoints).absolute()}
     if without or adding:
         inputs |= {"without": list(without or ()), "adding": list(adding or ())}
-    with interrupts(), atomic_output(out, "track", inputs, overwrite=overwrite, protect=[routine]) as staging:
+    with interrupts(), hold(check_output_folder(out, overwrite, [routine]), "track", wait), \
+            atomic_output(out, "track", inputs, overwrite=overwrite, protect=[routine]) as staging:
         r, checks = read_routine(routine, calibration_format, units, silent_seconds, calibration, keypoints, skeleton)
         notice = compile_notice()
         if notice:
@@ -156,7 +159,7 @@ DEMO_MODES = ("cascade", "cascade+", "triangulation")
 @app.command()
 def demo(
     out: Optional[Path] = typer.Option(None, "--out", "-o", help="also write the routine and both results here"),
-    seconds: float = typer.Option(30.0, "--seconds", "-s", help="length of the simulated routine (10-600 s)"),
+    seconds: float = typer.Option(30.0, "--seconds", "-s", help="length of the simulated routine (7 s to an hour)"),
     seed: int = typer.Option(0, "--seed", help="simulation seed"),
 ) -> None:
     """Simulate uneven bars seen by two opposite cameras; compare the cascade with triangulation (and cascade+)."""
