@@ -8,7 +8,7 @@ judges and background, bit for bit); the group is added on its own random stream
 other routine stays byte-identical.
 
 The group (``size`` people, 1.55-1.90 m): a cluster at the side of the performance space
-opposite the judges, each person's floor point at least ``min_gap`` from the others' and at most
+opposite the judges, inside the tracking space (0.3 m from its edge), each person's floor point at least ``min_gap`` from the others' and at most
 ``reach`` from a neighbour (a standing adult's arm span reaches ~0.8 m to the side). Each stands
 and gestures: every 1-3 s a new arm posture (shoulder flexion 0-120 deg, abduction 6-70 deg,
 elbow 10-120 deg: pointing, arms crossed, hands on hips), a turn of the head and body, and now
@@ -28,18 +28,23 @@ from .motion import WAIT, Motion, MotionBuilder
 from .people import Crowd, Person
 from .routine import SimulatedRoutine, _finish, _simulate_scene, check_args
 from .venue import FPS
+from ..formats.scene import preset_scene
 
 CROWD_STREAM = 0xC0_0D  # spawn key of the group's random stream (the routine's own streams are untouched)
 
 
-def _group_spots(rng: np.random.Generator, centre: np.ndarray, size: int, min_gap: float, reach: float) -> np.ndarray:
-    """(size, 2) floor points: each within ``reach`` of an earlier one and ``min_gap`` from all."""
-    pts = [np.asarray(centre, float)]
-    while len(pts) < size:
+def _group_spots(rng: np.random.Generator, centre: np.ndarray, size: int, min_gap: float, reach: float,
+                 area: np.ndarray) -> np.ndarray:
+    """(size, 2) floor points inside ``area`` (x0, y0, x1, y1): each within ``reach`` of an earlier
+    one and ``min_gap`` from all."""
+    pts = [np.clip(np.asarray(centre, float), area[:2], area[2:])]
+    for _ in range(10000):
+        if len(pts) == size:
+            break
         base = pts[int(rng.integers(len(pts)))]
         a = rng.uniform(-np.pi, np.pi)
         q = base + rng.uniform(min_gap, reach) * np.array([np.cos(a), np.sin(a)])
-        if np.linalg.norm(np.asarray(pts) - q, axis=1).min() >= min_gap:
+        if np.all((q >= area[:2]) & (q <= area[2:])) and np.linalg.norm(np.asarray(pts) - q, axis=1).min() >= min_gap:
             pts.append(q)
     return np.asarray(pts)
 
@@ -77,8 +82,14 @@ def simulate_crowd(apparatus: str, n_cam: int = 4, seed: int = 0, seconds: float
     app = get_apparatus(apparatus)
     crowd = Crowd(app, rng, FPS, sc.arrays["alive"].shape[1], sc.layout, sc.rig, target.motion, sc.events)
     crowd._next_id = int(max(p.pid for p in sc.people)) + 1
-    centre = crowd._home(-sc.layout.judge_side, 0)
-    spots = _group_spots(rng, centre, size, min_gap, reach)
+    # beside the performance space, on the side away from the judges, inside the tracking space
+    space, track = np.asarray(app.performance_space, float), np.asarray(preset_scene(apparatus).tracking_space, float)
+    side = -sc.layout.judge_side
+    if app.along_axis:
+        centre = np.array([target.motion.centre[:, 0].mean() + rng.uniform(-1.0, 1.0), (space[4] if side > 0 else space[1]) + side * 0.35])
+    else:
+        centre = np.array([(space[3] if side > 0 else space[0]) + side * 0.35, rng.uniform(-0.5, 0.5)])
+    spots = _group_spots(rng, centre, size, min_gap, reach, track[[0, 1, 3, 4]] + np.array([0.3, 0.3, -0.3, -0.3]))
     look = np.asarray(target.motion.centre[:, :2].mean(axis=0))
     group = []
     for k, xy in enumerate(spots):
