@@ -43,6 +43,7 @@ from .anchor import anchor_on_plane, bone_lengths, lines_of_sight, opposite_only
 from .consensus import settle_ties, view_consensus
 from .dlt import gauss_newton, residuals, weighted_dlt
 from .limb_check import LimbCheck, check_arms
+from .view_prior import prior_views
 from .smooth import smooth_track
 
 METHODS = ("dlt", "robust")
@@ -331,6 +332,8 @@ def _robust(rig, P, u, v, ok, sc, skeleton, centre, normal, opt) -> Lifted:
     counts = {"views_dropped": int((present & ~keep).sum()), "views_swapped": int((sw[:, ~legs].any(axis=1) & swap).sum()),
               "views_legs_swapped": int((~sw[:, ~legs].any(axis=1) & swap).sum()), "frames_fallback": int(fallback.sum())}
     u, v, ok, sc = (np.where(sw, a[:, flip], a) for a in (u, v, ok, sc))
+    keep, counts["frames_bone_vote"] = prior_views(P, u, v, ok, sc, box, gate, keep, fallback, skeleton, opt.inlier_error,
+                                                 centre=centre)
     use = ok & keep[:, None, :]
     w = np.where(use, sc / box[:, None, :], 0.0).reshape(C, -1)
     uf, vf = u.reshape(C, -1), v.reshape(C, -1)

@@ -43,6 +43,7 @@ class LimbCheck:
     min_frames: int = 10
     refine_iterations: int = 2
     drop: bool = False
+    rescale: bool = True
 
 
 def arm_chains(skeleton: Skeleton) -> list[tuple[int, int]]:
@@ -135,6 +136,10 @@ def check_arms(P: np.ndarray, X3: np.ndarray, u: np.ndarray, v: np.ndarray, use:
         if check.drop:
             X3[tl, b] = np.nan
             use[:, b, tl] = False
+        elif check.rescale:  # along its bone, to the track's length (the direction is better known than the depth)
+            d = X3[tl, b] - X3[tl, a]
+            n = np.linalg.norm(d, axis=1, keepdims=True)
+            X3[tl, b] = np.where(n > 0, X3[tl, a] + d * (L / np.maximum(n, 1e-9)), X3[tl, b])
         counts["arm_joints_reestimated"] += int(fixed.sum())
         counts["arm_joints_dropped"] += int((~fixed).sum())
     return X3, use, counts

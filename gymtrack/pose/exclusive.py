@@ -1,0 +1,68 @@
+"""One body, one person: a 2D pose found twice in a view (two tracks' crops on the same body) is
+kept only by the track whose other views it agrees with.
+
+Rule (several close people): a top-down model run on each track's crop locks on to the body in
+the crop's middle, and where people overlap two tracks' crops can hold the same body; both then
+return that body's pose (Li et al., CrowdPose, CVPR 2019, Sec. 1: top-down models in crowds give
+"the same person" for overlapping boxes). The pose belongs to one person only. Two poses of one
+frame and view, put on different tracks, are the same body when their joints coincide (median
+distance over the joints both found below ``same_frac`` of the pose's size); the one whose joints
+lie farther from the epipolar lines of its track's poses in the other views
+(:func:`.assign_joints.joint_costs`) loses its track. Where neither track has another view to
+compare with, both are kept.
+
+Arrays: poses (N rows), track (N,) the assigned track id (-1 none).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..geometry.camera import Rig
+from ..poses import Poses2D
+from .assign_joints import _undistorted, joint_costs
+
+SAME_FRAC = 0.05
+
+
+def same_body_pairs(poses: Poses2D, uv: np.ndarray, track: np.ndarray, same_frac: float = SAME_FRAC) -> np.ndarray:
+    """(K, 2) row pairs of one frame and view, on different tracks, whose joints coincide; uv
+    (N, J, 2) undistorted pixels (NaN = not found)."""
+    rows = np.flatnonzero(track >= 0)
+    key = poses.frame[rows].astype(np.int64) * 1024 + poses.camera[rows]
+    o = np.argsort(key, kind="stable")
+    rows, key = rows[o], key[o]
+    pairs = []
+    for k in range(1, len(rows)):
+        same = np.flatnonzero(key[k:] == key[:-k])
+        if not same.size:
+            break
+        pairs.append(np.column_stack([rows[same], rows[same + k]]))
+    if not pairs:
+        return np.zeros((0, 2), np.int64)
+    pr = np.concatenate(pairs)
+    pr = pr[track[pr[:, 0]] != track[pr[:, 1]]]
+    a, b = uv[pr[:, 0]], uv[pr[:, 1]]
+    with np.errstate(invalid="ignore"), np.testing.suppress_warnings() as sup:
+        sup.filter(RuntimeWarning)  # poses without a common joint: NaN, not the same
+        size = np.nanmax(np.nanmax(a, axis=1) - np.nanmin(a, axis=1), axis=1)
+        d = np.nanmedian(np.linalg.norm(a - b, axis=-1), axis=1) / size
+    return pr[np.isfinite(d) & (d < same_frac)]
+
+
+def exclusive_bodies(poses: Poses2D, rig: Rig, track: np.ndarray, same_frac: float = SAME_FRAC) -> np.ndarray:
+    """(N,) bool: the poses that lose their track because another track's pose is the same body
+    and fits that track's other views better (module doc)."""
+    track = np.asarray(track, np.int64)
+    lose = np.zeros(len(track), bool)
+    if not len(track):
+        return lose
+    pr = same_body_pairs(poses, _undistorted(poses, rig), track, same_frac)
+    if not len(pr):
+        return lose
+    e = joint_costs(poses, rig, pr.reshape(-1), track[pr.reshape(-1)], track).reshape(-1, 2)
+    e = np.where(np.isfinite(e), e, np.inf)
+    decided = np.isfinite(e).any(axis=1) & (e[:, 0] != e[:, 1])
+    loser = np.where(e[:, 0] > e[:, 1], pr[:, 0], pr[:, 1])
+    lose[loser[decided]] = True
+    return lose
