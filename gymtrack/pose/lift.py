@@ -43,7 +43,6 @@ from .anchor import anchor_on_plane, bone_lengths, lines_of_sight, opposite_only
 from .consensus import settle_ties, view_consensus
 from .dlt import gauss_newton, residuals, weighted_dlt
 from .limb_check import LimbCheck, check_arms
-from .view_prior import prior_views
 from .smooth import smooth_track
 
 METHODS = ("dlt", "robust")
@@ -115,7 +114,7 @@ class LiftOptions:
     smooth_outlier_m: float = 0.15
     plane_score_factor: float = 0.5
     fallback_score_factor: float = 0.3
-    arms: LimbCheck | None = LimbCheck()  #: arms against the track's bones and motion (:mod:`.limb_check`); None = off
+    arms: LimbCheck | None = None  #: arms against the track's bones and motion (:mod:`.limb_check`); None = off
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -332,8 +331,6 @@ def _robust(rig, P, u, v, ok, sc, skeleton, centre, normal, opt) -> Lifted:
     counts = {"views_dropped": int((present & ~keep).sum()), "views_swapped": int((sw[:, ~legs].any(axis=1) & swap).sum()),
               "views_legs_swapped": int((~sw[:, ~legs].any(axis=1) & swap).sum()), "frames_fallback": int(fallback.sum())}
     u, v, ok, sc = (np.where(sw, a[:, flip], a) for a in (u, v, ok, sc))
-    keep, counts["frames_bone_vote"] = prior_views(P, u, v, ok, sc, box, gate, keep, fallback, skeleton, opt.inlier_error,
-                                                 centre=centre)
     use = ok & keep[:, None, :]
     w = np.where(use, sc / box[:, None, :], 0.0).reshape(C, -1)
     uf, vf = u.reshape(C, -1), v.reshape(C, -1)
