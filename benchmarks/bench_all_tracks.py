@@ -13,9 +13,14 @@ it lies on (the one whose true joints are nearest, within 0.5 m on average), ove
 arm, forearm, thigh, shin and the torso; beside it, how many true person-frames lie in the
 tracking space.
 
+A crowd (``--crowd N``, :func:`gymtrack.simulate.crowd.simulate_crowd`): the same routine plus N
+people (gymnasts and coaches) standing within arm's reach of each other beside the apparatus
+and gesturing, so that their boxes overlap in every view and the simulated top-down model's
+crops often hold a neighbour (its crop confusion, :func:`gymtrack.simulate.pose_view.choose_person`).
+
 Usage::
 
-    python benchmarks/bench_all_tracks.py [--apparatus balance_beam] [--seconds 30] [--repeat 3]
+    python benchmarks/bench_all_tracks.py [--apparatus balance_beam] [--seconds 30] [--repeat 3] [--crowd 6]
 """
 
 from __future__ import annotations

@@ -190,7 +190,8 @@ def lift_poses(result: TrackResult, rig: Rig, scene: Scene, poses: Poses2D, all_
     method: ``dlt`` (paper Eq. 3 per joint) | ``robust``; plane: with ``robust``, pass the centre
         and the nearest plane's normal (False: the ablation "robust without plane anchoring").
     min_iou: the assignment's gate; joints: also assign by the joints' epipolar agreement where
-        boxes overlap (:mod:`gymtrack.pose.assign_joints`).
+        boxes overlap (:mod:`gymtrack.pose.assign_joints`), and leave a body two tracks' poses
+        found in one view to the track it fits (:mod:`gymtrack.pose.exclusive`).
     """
     if method not in LIFT_METHODS:
         raise InputError(f"unknown lifting method {method!r}; choose one of {', '.join(LIFT_METHODS)}", field="--lift")
