@@ -142,3 +142,23 @@ def test_arm_chains_are_found_by_name_in_any_joint_order():
         ch = arm_chains(sk)
         names = [(sk.joints[a], sk.joints[b]) for a, b in ch]
         assert ("left_elbow", "left_wrist") in names and ("right_shoulder", "right_elbow") in names and len(ch) == 4
+
+
+def test_a_neighbours_body_in_a_crop_moves_to_the_neighbours_track(rng):
+    from gymtrack.pose.exclusive import foreign_bodies
+
+    rig, X, Y = _two_people(rng)
+    rows = [(0, 0, 1, X[0]), (0, 1, 1, X[0]), (0, 2, 1, Y[0]),  # track 1's crop in view 2 holds person 2
+            (0, 0, 2, Y[0]), (0, 1, 2, Y[0]), (0, 3, 2, Y[0]),  # track 2 has no pose in view 2
+            (1, 0, 1, X[1]), (1, 1, 1, X[1]), (1, 2, 1, X[1]), (1, 0, 2, Y[1]), (1, 3, 2, Y[1])]  # all right
+    p = _poses(rig, rows)
+    xyz = np.array([X[0].mean(0), Y[0].mean(0), X[1].mean(0), Y[1].mean(0)])
+    new = foreign_bodies(p, rig, p.track_id, np.array([0, 0, 1, 1]), np.array([1, 2, 1, 2]), xyz)
+    expect = p.track_id.copy()
+    expect[2] = 2
+    np.testing.assert_array_equal(new, expect)
+    # where track 2 has its own pose in view 2 already, the foreign one is dropped
+    rows[3] = (0, 2, 2, Y[0] + 0.02)
+    p = _poses(rig, rows)
+    new = foreign_bodies(p, rig, p.track_id, np.array([0, 0, 1, 1]), np.array([1, 2, 1, 2]), xyz)
+    assert new[2] == -1 and np.array_equal(np.delete(new, 2), np.delete(p.track_id, 2))
