@@ -81,9 +81,7 @@ def test_a_body_found_once_or_without_other_views_keeps_its_track(rng):
 def _arm_case(rng, T=30):
     rig = random_rig(rng, 4)
     X, _ = body_track(T)
-    C, J = len(rig), 17
-    uv = np.stack([cam.project(X) for cam in rig])  # (C, T, J, 2), no distortion in undistorted terms below
-    uv = np.stack([cam.undistort(uv[c]) for c, cam in enumerate(rig)])
+    uv = np.stack([cam.undistort(cam.project(X)) for cam in rig])  # (C, T, J, 2) undistorted pixels
     u, v = (np.ascontiguousarray(uv[..., k].transpose(0, 2, 1)) for k in (0, 1))  # (C, J, T)
     return rig, X, u, v
 
