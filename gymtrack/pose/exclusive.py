@@ -4,8 +4,8 @@ kept only by the track whose other views it agrees with.
 Rule (several close people): a top-down model run on each track's crop locks on to the body in
 the crop's middle, and where people overlap two tracks' crops can hold the same body; both then
 return that body's pose (the crowded-scene failure of top-down models that CrowdPose, Li et al.,
-CVPR 2019, was built to measure: a box holding several people). The pose belongs to one person only. Two poses of one
-frame and view, put on different tracks, are the same body when their joints coincide (median
+CVPR 2019, was built to measure: a box holding several people). The pose belongs to one person
+only. Two poses of one frame and view, put on different tracks, are the same body when their joints coincide (median
 distance over the joints both found below ``same_frac`` of the pose's size); the one whose joints
 lie farther from the epipolar lines of its track's poses in the other views
 (:func:`.assign_joints.joint_costs`) loses its track. Where neither track has another view to
