@@ -205,11 +205,13 @@ def benchmark(
         mv = run_mvor_pose(mvor, log=lambda s: console.print("  " + s))
         if not mv.get("available"):
             console.print(f"[yellow]{mv['note']}[/]")
+    from gymtrack.eval.explain import explain_markdown
     from gymtrack.eval.pooled import pooled_markdown
 
     pooled_md = pooled_markdown(run.rows)
+    explain_md = explain_markdown(run.rows)
     meta = {"suite": str(suite) + (f" (seeds {', '.join(map(str, seed_list))})" if seed_list else ""), "methods": ", ".join(method_list)}
-    files = write_benchmark(run, out, meta=meta, wildtrack=wt, mvor=mv, dropout=drop, sections=[pooled_md])
+    files = write_benchmark(run, out, meta=meta, wildtrack=wt, mvor=mv, dropout=drop, sections=[pooled_md, explain_md])
     found = print_summary(run.rows)
     console.print(pooled_md, highlight=False)
     if "cascade+" in method_list:

@@ -47,6 +47,7 @@ from .metrics import (
     target_id_switches,
 )
 from .aggregate import METHODS
+from .explain import CAUSES, explain_failures
 
 #: Apparatus whose n_cam = 2 routine is drawn like the paper's Fig. 6.
 FIG6_APPARATUS: tuple[str, ...] = ("balance_beam", "uneven_bars", "parallel_bars")
@@ -177,6 +178,8 @@ def run_routine(spec: RoutineSpec, methods: Sequence[str], keep_trajectories: bo
             row = {**base, "method": method_name(method), "frames": int(res.summary.get("frames", 0)), "seconds": sec,
                    **evaluate_routine(res, gt, r.scene, r.rig, mot=mot),
                    "target_switches": int(res.summary.get("target_switches", 0)), "error": "", **extra}
+            why = explain_failures(res, r.detections, gt, r.scene, r.rig)  # the FR's failures by cause (.explain)
+            row |= {f"why_{c}": why[c] for c in CAUSES}
             if pgt is not None:
                 row |= pose_columns(method, res, r.rig, r.scene, pgt, seed=spec.seed)
             if keep_trajectories:
