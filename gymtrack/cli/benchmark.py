@@ -127,6 +127,8 @@ def benchmark(
     seeds: Optional[str] = typer.Option(None, "--seeds", help="comma-separated base seeds, e.g. 0,1,2: one default suite "
                                         "per seed (OUT/suite-s<seed>, simulated unless there), pooled; the headline figures "
                                         "get 90 % bootstrap intervals over routines"),
+    n_cams: Optional[str] = typer.Option(None, "--n-cams", help="comma-separated: only the suite's routines with these "
+                                         "n_cam (e.g. 2)"),
     check: bool = typer.Option(False, "--check", help="exit with status 1 when a target (claim) fails or a run fails"),
     ablation: bool = typer.Option(False, "--ablation", help="instead of the methods: cascade+ with each ingredient beyond "
                                   "the paper switched off alone, and the cascade with each added alone (target FR / AED, "
@@ -159,6 +161,16 @@ def benchmark(
             console.print(f"no --suite: using the suite already simulated in [bold]{suite}[/]")
     if not seed_list:
         specs = read_suite(suite)
+    if n_cams:
+        from gymtrack.errors import InputError
+
+        try:
+            keep = {int(x) for x in n_cams.split(",") if x.strip()}
+        except ValueError:
+            raise InputError(f"expected comma-separated integers, got {n_cams!r}", field="--n-cams") from None
+        specs = [s for s in specs if s.n_cam in keep]
+        if not specs:
+            raise InputError(f"no routine of the suite has n_cam in {sorted(keep)}", field="--n-cams")
     runner = None
     if not scheduler and n_jobs > 1 and importlib.util.find_spec("distributed") is None:
         console.print("[yellow]note:[/] Dask is not installed (the 'batch' extra: pip install 'gymtrack[batch]'): "

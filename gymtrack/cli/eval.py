@@ -63,6 +63,18 @@ def score_table(s: dict) -> Table:
     return t
 
 
+def explain_table_of(why: dict) -> Table:
+    """The failure breakdown of one output (:func:`gymtrack.eval.explain.explain_failures`) as a table."""
+    from gymtrack.eval.explain import CAUSES
+
+    t = Table(title=f"target FR failures by cause ({why['failures']} of {why['evaluated']} boxes)", title_justify="left")
+    for col in ("cause", "boxes", "share of evaluated"):
+        t.add_column(col, justify="left" if col == "cause" else "right")
+    for c in CAUSES:
+        t.add_row(c.replace("_", " "), str(why[c]), _f(why[c] / why["evaluated"] if why["evaluated"] else float("nan"), "{:.1%}"))
+    return t
+
+
 @app.command("eval")
 def eval_cmd(
     routine: Path = typer.Argument(..., help="routine folder with gt/ (persons_3d.csv, boxes_2d/)"),
@@ -71,16 +83,21 @@ def eval_cmd(
     mot: bool = typer.Option(True, "--mot/--no-mot", help="also score all people (MOTA, IDF1; the slowest part)"),
     calibration_format: Optional[str] = calibration_format_option(),
     units: Optional[str] = units_option(),
+    explain: bool = typer.Option(False, "--explain", help="also give every failed target box (FR) its cause: no detection "
+                                 "in any view, box wrong though the centre is right, never clustered, taken by a phantom "
+                                 "cluster, a wrong identification, a linking break"),
 ) -> None:
     """Score an output folder against the routine's ground truth (target and all people)."""
     from gymtrack.eval.score import score_output
 
     opts = {} if units is None else {"units": units}
-    s = score_output(routine, out, mot=mot, calibration_format=calibration_format, **opts)
+    s = score_output(routine, out, mot=mot, calibration_format=calibration_format, explain=explain, **opts)
     if as_json:
         s = {k: v for k, v in s.items() if k != "row"}
         typer.echo(json.dumps(_no_nan(s), indent=2))
         return
     console.print(score_table(s))
+    if explain:
+        console.print(explain_table_of(s["explain"]))
     for note in s["notes"]:
         console.print(f"note: {note}", highlight=False)
