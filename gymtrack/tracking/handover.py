@@ -55,12 +55,12 @@ class TargetHandover:
     def step(self, frame: np.ndarray, tid: np.ndarray, xyz: np.ndarray, ended: dict[int, int], selector
              ) -> tuple[np.ndarray, dict[int, int]]:
         """Rows (n,) of final track points: their ids as the selector sees them, and ``ended`` as it sees it."""
-        if len(tid):
-            ids, at = np.unique(tid, return_index=True)
-            for k, i in zip(ids.tolist(), at.tolist()):
-                if k > self.seen_max:
-                    self.first[k] = (int(frame[i]), xyz[i].copy())
-            self.seen_max = max(self.seen_max, int(ids[-1]))
+        if len(tid) and int(tid.max()) > self.seen_max:  # births: rows are in frame order, first row first
+            new = np.flatnonzero(tid > self.seen_max)
+            ids, at = np.unique(tid[new], return_index=True)
+            for k, i in zip(ids.tolist(), new[at].tolist()):
+                self.first[k] = (int(frame[i]), xyz[i].copy())
+            self.seen_max = int(ids[-1])
         root = selector.target if selector.target >= 0 else selector.last_target
         if root >= 0:
             live = self.live.get(root, root)
