@@ -22,7 +22,9 @@ the pipeline's order, and each of its failed pairs counts for it:
     a track is within ``near`` of the gymnast, but the target has no output at that frame (its
     track broke and the target stage had not taken up the continuation).
 
-The causes of one routine add up to the FR's failures. Arrays: pairs ``(G,)``, frames ``(F,)``.
+The causes of one routine add up to the FR's failures. The tests are by place: for the oracle
+(whose association is right) a ``phantom`` is its own track estimated more than ``near`` off (the
+pommel horse's circling legs). Arrays: pairs ``(G,)``, frames ``(F,)``.
 """
 
 from __future__ import annotations
