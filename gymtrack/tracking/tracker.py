@@ -78,6 +78,7 @@ from .plane_refine import PlaneRefiner
 from .reconstruct import cluster_members, fallback_segments, opposite_clusters, outliers, outliers_at_mean, triangulate_clusters
 from .single_view import IoUTracker
 from .single_view_motion import MotionIoUTracker, needs_motion
+from .handover import TargetHandover
 from .target import TargetStage
 from .types import TrackerOutput, Tracks3D, WindowTracklets, WindowTracklets3D
 from .records import BoxTable, WindowRecords
@@ -146,7 +147,7 @@ class Tracker:
                        if m.motion_link and association == "iou" else None)
         # frames a segment's end box is held (windows): max_age, or hold_seconds (capped at max_age)
         self.hold = p.max_age if m.hold_seconds is None else min(p.max_age, int(m.hold_seconds * scene.fps))
-        self.target = TargetStage(rig, scene)
+        self.target = TargetStage(rig, scene, TargetHandover(p.identify_frames, self.counts) if m.handover else None)
         # the apparatus plane refined online (.plane_refine); planes: auto turns it on
         every = p.refine_plane or (REFINE_EVERY if scene.auto_planes else 0)
         self.refiner = PlaneRefiner(self.P, scene, self.planes[0], every) if m.refine_plane and every else None
