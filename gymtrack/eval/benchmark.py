@@ -161,7 +161,9 @@ def run_routine(spec: RoutineSpec, methods: Sequence[str], keep_trajectories: bo
         pgt = PoseGroundTruth.load(spec.path, gt, r.scene.performance_space) if pose else None
     except Exception as exc:
         pgt, base["pose_error"] = None, f"{type(exc).__name__}: {exc}"
-    jt = _judging_truth(spec, r.scene, pgt, base)
+    from .judging import judging_truth
+
+    jt = None if pgt is None else judging_truth(spec.path, r.scene, pgt, base)
     if keep_trajectories:
         t = gt.target()
         traj["GT"] = (t.frame, t.xyz)
@@ -195,20 +197,6 @@ def run_routine(spec: RoutineSpec, methods: Sequence[str], keep_trajectories: bo
     if jt is not None and rows:  # the definitions check, once per routine
         rows[0]["judge_truth_parts"] = json.dumps(jt.truth_parts())
     return {"rows": rows, "trajectories": traj if keep_trajectories else None, "spec": spec.__dict__}
-
-
-def _judging_truth(spec: RoutineSpec, scene: Scene, pgt, base: dict):
-    """The routine's :class:`~gymtrack.eval.judging.JudgingTruth` (None without gt/elements.json or
-    poses; a failure is noted in ``base["judge_error"]`` and costs nothing else)."""
-    if pgt is None:
-        return None
-    try:
-        from .judging import JudgingTruth
-
-        return JudgingTruth.load(spec.path, scene, pgt)
-    except Exception as exc:
-        base["judge_error"] = f"{type(exc).__name__}: {exc}"
-        return None
 
 
 # ----------------------------------------------------------------------------- suites
