@@ -38,7 +38,7 @@ def aed(sim, det, rig=None, recalibrate=True):
     rig = rig or sim.rig
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = track_detections(rig, sim.scene, det, mode="cascade+", recalibrate=recalibrate)
+        res = track_detections(rig, sim.scene, det, mode="cascade+", watch_cameras=True, recalibrate=recalibrate)
     row = evaluate_routine(res, sim.ground_truth(), sim.scene, sim.rig, mot=False)
     return row["aed_sum"] / max(row["aed_n"], 1), res.summary
 

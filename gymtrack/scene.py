@@ -55,10 +55,12 @@ class PlaneSpec(_Strict):
 
 class TargetSpec(_Strict):
     """Eq. 13: a track is the target when its box top rises above ``h_top`` and its box bottom
-    above ``h_bot`` (metres) while inside the performance space."""
+    above ``h_bot`` (metres) while inside the performance space. A real venue's calibrated floor
+    lies a few centimetres off z = 0, so both may be below 0, down to the tracking space's floor
+    (checked by :class:`Scene`)."""
 
-    h_top: float = Field(2.0, ge=0)
-    h_bot: float = Field(0.6, ge=0)
+    h_top: float = Field(2.0, allow_inf_nan=False)
+    h_bot: float = Field(0.6, allow_inf_nan=False)
 
 
 class Params(_Strict):
@@ -172,6 +174,15 @@ class Scene(_Strict):
         if not (v[0] < v[3] and v[1] < v[4] and v[2] < v[5]):
             raise ValueError(f"must be [xmin, ymin, zmin, xmax, ymax, zmax] with min < max, got {list(v)}")
         return v
+
+    @model_validator(mode="after")
+    def _heights_in_space(self) -> "Scene":
+        zmin = self.performance_space[2]
+        for name in ("h_bot", "h_top"):
+            if getattr(self.target, name) < zmin:
+                raise ValueError(f"target.{name} ({getattr(self.target, name):g} m) lies below the tracking space's "
+                                 f"floor (performance_space zmin {zmin:g} m): lower zmin to where the venue's floor is")
+        return self
 
     # ------------------------------------------------------------------ derived
     @property

@@ -7,6 +7,15 @@ Joint names and orders are those of ``shared/formats.md``:
 * ``COCO17``  the COCO keypoints (HRNet, RTMPose, mmpose's default)
 * ``BODY25``  OpenPose's BODY_25
 * ``HALPE26`` Halpe full-body's 26 body joints (AlphaPose, RTMPose-Halpe)
+* ``BODY25B`` OpenPose's experimental BODY_25B (Pose2Sim's default): the COCO-17 joints, then
+  ``neck`` (OpenPose's UpperNeck), ``head`` (HeadTop) and the six foot joints. Same joint count as
+  BODY_25, another order: which one a 25-joint file holds is decided by
+  :mod:`gymtrack.formats.skeleton_fit`, never by the count alone.
+* ``COCO_WHOLEBODY`` the body part of COCO-WholeBody's 133 joints (the first 23: COCO-17 and the six
+  foot joints); files with 133 joints are read into it, the face and hand joints are counted, not used.
+* ``COCO18`` OpenPose's COCO model and rtmlib's ``to_openpose`` body output (18 joints, with a neck).
+
+``ALIASES`` maps the tools' own spellings (``BODY_25B``, ``HALPE_26``, ``COCO_133``...) to these names.
 
 A :class:`Skeleton` carries, besides the names, two arrays derived from them:
 
@@ -39,6 +48,17 @@ BODY25_JOINTS = (
 HALPE26_JOINTS = COCO17_JOINTS + (
     "head", "neck", "hip", "left_big_toe", "right_big_toe", "left_small_toe", "right_small_toe",
     "left_heel", "right_heel",
+)
+_FEET = ("left_big_toe", "left_small_toe", "left_heel", "right_big_toe", "right_small_toe", "right_heel")
+# openpose_train/experimental_models: UpperNeck (17) and HeadTop (18) after the COCO joints
+BODY25B_JOINTS = COCO17_JOINTS + ("neck", "head") + _FEET
+#: the body part of COCO-WholeBody (its joints 0-22); 23-132 are face (68) and hands (2 x 21)
+WHOLEBODY_BODY_JOINTS = COCO17_JOINTS + _FEET
+WHOLEBODY_JOINT_COUNT = 133
+COCO18_JOINTS = (
+    "nose", "neck", "right_shoulder", "right_elbow", "right_wrist", "left_shoulder", "left_elbow", "left_wrist",
+    "right_hip", "right_knee", "right_ankle", "left_hip", "left_knee", "left_ankle", "right_eye", "left_eye",
+    "right_ear", "left_ear",
 )
 
 # Segments by name, written for the left side; the right side is derived by mirroring. The face
@@ -80,7 +100,7 @@ class Skeleton:
 
     Attributes
     ----------
-    name: ``"coco17"`` | ``"body25"`` | ``"halpe26"`` | ``"custom"``.
+    name: a key of :data:`SKELETONS` or ``"custom"``.
     joints: J snake_case joint names in file order.
     flip: (J,) int64, index of each joint's left/right mirror (itself for central joints and for a
         ``left_``/``right_`` joint whose mirror the skeleton lacks).
@@ -130,16 +150,28 @@ def _make(name: str, joints: Sequence[str]) -> Skeleton:
 COCO17 = _make("coco17", COCO17_JOINTS)
 BODY25 = _make("body25", BODY25_JOINTS)
 HALPE26 = _make("halpe26", HALPE26_JOINTS)
-SKELETONS: dict[str, Skeleton] = {s.name: s for s in (COCO17, BODY25, HALPE26)}
+BODY25B = _make("body25b", BODY25B_JOINTS)
+COCO_WHOLEBODY = _make("coco_wholebody", WHOLEBODY_BODY_JOINTS)
+COCO18 = _make("coco18", COCO18_JOINTS)
+SKELETONS: dict[str, Skeleton] = {s.name: s for s in (COCO17, BODY25, HALPE26, BODY25B, COCO_WHOLEBODY, COCO18)}
+#: the tools' spellings -> gymtrack's names (compared after lower-casing and dropping ``_``/``-``)
+ALIASES: dict[str, str] = {"body25": "body25", "body25b": "body25b", "halpe26": "halpe26", "halpe": "halpe26",
+                           "coco17": "coco17", "coco": "coco17", "coco133": "coco_wholebody",
+                           "cocowholebody": "coco_wholebody", "wholebody": "coco_wholebody", "coco18": "coco18",
+                           "openposecoco": "coco18"}
+#: joints a file of each skeleton holds (COCO-WholeBody: 133, of which the first 23 are read)
+FILE_JOINTS: dict[str, int] = {**{n: len(s.joints) for n, s in SKELETONS.items()}, "coco_wholebody": WHOLEBODY_JOINT_COUNT}
 
 
 def get_skeleton(name: str) -> Skeleton:
-    """The named skeleton (``coco17``, ``body25``, ``halpe26``); :class:`InputError` otherwise."""
-    try:
-        return SKELETONS[name]
-    except (KeyError, TypeError):
-        raise InputError(f"unknown skeleton {name!r}; known: {', '.join(SKELETONS)} (or give 'joints')",
-                         field="skeleton") from None
+    """The named skeleton (``coco17``, ``body25``, ``body25b``, ``halpe26``, ``coco_wholebody``,
+    ``coco18``, or a tool's spelling of them such as ``BODY_25B``, ``HALPE_26``, ``COCO_133``);
+    :class:`InputError` otherwise."""
+    key = name.lower().replace("_", "").replace("-", "") if isinstance(name, str) else None
+    if key in ALIASES:
+        return SKELETONS[ALIASES[key]]
+    raise InputError(f"unknown skeleton {name!r}; known: {', '.join(SKELETONS)} (also spelt BODY_25B, HALPE_26, "
+                     "COCO_17, COCO_133; or give the joint names)", field="skeleton")
 
 
 def custom_skeleton(joints: Sequence[str]) -> Skeleton:

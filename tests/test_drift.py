@@ -23,7 +23,7 @@ def sim():
 def _track(sim, det, recalibrate=True):
     with warnings.catch_warnings(record=True) as w:
         warnings.simplefilter("always")
-        res = track_detections(sim.rig, sim.scene, det, mode="cascade+", recalibrate=recalibrate)
+        res = track_detections(sim.rig, sim.scene, det, mode="cascade+", watch_cameras=True, recalibrate=recalibrate)
     return res, [str(x.message) for x in w]
 
 

@@ -68,15 +68,20 @@ def test_native_details(tmp_path):
 
 def test_coco_results_infer_or_take_the_skeleton(tmp_path):
     rng = np.random.default_rng(0)
-    for J, sk in ((17, COCO17), (25, BODY25), (26, HALPE26)):
+    for J, sk, named in ((17, COCO17, None), (25, BODY25, "body25"), (26, HALPE26, None)):
         flat = rng.uniform(0, 100, 3 * J).round(2).tolist()
         (tmp_path / "c.json").write_text(json.dumps([{"image_id": 7, "category_id": 1, "keypoints": flat,
                                                       "score": 0.8, "bbox": [1, 2, 3, 4]}] * 2))
-        p = read_keypoints_file(tmp_path / "c.json", 0, ("c",))
+        p = read_keypoints_file(tmp_path / "c.json", 0, ("c",), skeleton=named)
         assert p.skeleton is sk and len(p) == 2 and np.allclose(p.keypoints[1].ravel(), flat)
         assert p.bbox[0].tolist() == [1, 2, 3, 4] and p.frame.tolist() == [7, 7]
+    # 25 joints are BODY_25 or BODY_25B: two poses of random joints cannot tell which
+    (tmp_path / "c.json").write_text(json.dumps([{"image_id": 7, "keypoints": [1, 2, 1] * 25}]))
+    with pytest.raises(InputError, match=r"c.json: field '\[0\].keypoints': 25 joints per pose fit several skeletons"
+                                         r".*say which with --skeleton"):
+        read_keypoints_file(tmp_path / "c.json", 0, ("c",))
     (tmp_path / "c.json").write_text(json.dumps([{"image_id": 7, "keypoints": [1, 2, 1] * 5}]))
-    with pytest.raises(InputError, match=r"c.json: field '\[0\].keypoints': 5 joints: give the skeleton"):
+    with pytest.raises(InputError, match=r"c.json: field '\[0\].keypoints': 5 joints per pose: no known skeleton"):
         read_keypoints_file(tmp_path / "c.json", 0, ("c",))
     p = read_keypoints_file(tmp_path / "c.json", 0, ("c",), skeleton=custom_skeleton(["a", "b", "c", "d", "e"]))
     assert p.keypoints.shape == (1, 5, 3)
@@ -102,30 +107,34 @@ def test_openpose_folder_and_skeletons_must_agree(tmp_path):
     assert p.skeleton is BODY25 and len(p) == 7
     assert p.frame.tolist() == [1, 1, 2, 2, 2, 3, 3] and p.camera.tolist() == [0, 0, 0, 0, 1, 0, 0]
     assert np.isnan(p.bbox[p.camera == 0]).all()
-    # an empty COCO list takes the others' skeleton
+    # an empty COCO list names no skeleton; random 25-joint poses do not tell BODY_25 from BODY_25B
     (tmp_path / "kp" / "cam2.json").write_text("[]")
-    assert read_keypoints(tmp_path / "kp", CAMS).skeleton is BODY25
+    with pytest.raises(InputError, match="25 joints per pose fit several skeletons"):
+        read_keypoints(tmp_path / "kp", CAMS)
+    assert read_keypoints(tmp_path / "kp", CAMS, skeleton="BODY_25").skeleton is BODY25
     (tmp_path / "kp" / "cam2.json").write_text(json.dumps({"skeleton": "coco17", "poses": []}))
-    with pytest.raises(InputError, match=r"cam2.json: skeleton coco17 \(17 joints\) differs from body25"):
+    with pytest.raises(InputError, match=r"cam1/routine_000000000001_keypoints.json: field 'people\[0\]"
+                                         r".pose_keypoints_2d': 25 joints, expected 17 \(coco17\)"):
         read_keypoints(tmp_path / "kp", CAMS)
 
 
 def test_folder_errors(tmp_path):
     _openpose(tmp_path / "kp" / "cam1", [1], n_values=54)  # OpenPose's COCO-18 model
     (tmp_path / "kp" / "cam2.json").write_text("[]")
+    assert read_keypoints(tmp_path / "kp", CAMS).skeleton.name == "coco18"
     with pytest.raises(InputError, match=r"cam1/routine_000000000001_keypoints.json: field 'people\[0\]"
-                                         r".pose_keypoints_2d': must hold 75 values \(BODY_25\), got 54"):
-        read_keypoints(tmp_path / "kp", CAMS)
+                                         r".pose_keypoints_2d': 18 joints, expected 25 \(body25\)"):
+        read_keypoints(tmp_path / "kp", CAMS, skeleton="body25")
     with pytest.raises(InputError, match="no keypoints for camera 'cam3'"):
         read_keypoints(tmp_path / "kp", CAMS + ("cam3",))
     (tmp_path / "kp" / "cam1" / "notes.txt").write_text("x")
-    with pytest.raises(InputError, match="notes.txt: not an OpenPose file"):
+    with pytest.raises(InputError, match="notes.txt: not a JSON file"):
         read_keypoints_file(tmp_path / "kp" / "cam1", 0, CAMS)
     (tmp_path / "kp" / "cam9.json").write_text("[]")
     with pytest.raises(InputError, match="cam9.json: names no camera"):
         read_keypoints(tmp_path / "kp", CAMS)
     (tmp_path / "kp" / "cam1.json").write_text("[]")
-    with pytest.raises(InputError, match="both cam1.json and an OpenPose folder"):
+    with pytest.raises(InputError, match="camera 'cam1' has both cam1 and cam1.json; keep one"):
         read_keypoints(tmp_path / "kp", CAMS)
 
 
@@ -150,8 +159,8 @@ def test_native_errors_name_file_pose_and_field(tmp_path, poses, field, message)
 
 def test_unknown_skeleton_and_bad_json(tmp_path):
     path = tmp_path / "cam1.json"
-    path.write_text(json.dumps({"skeleton": "coco18", "poses": []}))
-    with pytest.raises(InputError, match=r"cam1.json: field 'skeleton': unknown skeleton 'coco18'"):
+    path.write_text(json.dumps({"skeleton": "coco19", "poses": []}))
+    with pytest.raises(InputError, match=r"cam1.json: field 'skeleton': unknown skeleton 'coco19'"):
         read_keypoints_file(path, 0, CAMS)
     path.write_text('{"skeleton": "coco17",\n "poses": [}')
     with pytest.raises(InputError, match=r"cam1.json: line 2: not valid JSON"):

@@ -339,9 +339,14 @@ def test_invalid_arguments_raise_clear_errors(rng):
     with pytest.raises(InputError, match="plane_normal"):
         lift_track(rig, kp, COCO17, centre=np.zeros((5, 3)), plane_normal=[0, 0, 0])
     bad = kp.copy()
-    bad[2, 1, 4, 2] = 1.5
-    with pytest.raises(InputError, match="scores must be in \\[0, 1\\].*camera cam1, joint right_ear"):
+    bad[2, 1, 4, 2] = -0.5
+    with pytest.raises(InputError, match="scores must be >= 0.*camera cam1, joint right_ear"):
         lift_track(rig, bad, COCO17)
+    # a score above 1 (OpenPose's heatmap peaks) is a weight of 1: the same result as 1
+    hi, one = kp.copy(), kp.copy()
+    hi[:, :, :, 2] = np.where(hi[:, :, :, 2] > 0, 1.04, 0)
+    one[:, :, :, 2] = np.where(one[:, :, :, 2] > 0, 1.0, 0)
+    assert np.allclose(lift_track(rig, hi, COCO17).xyz, lift_track(rig, one, COCO17).xyz, equal_nan=True)
     with pytest.raises(ValueError, match="flip_ratio"):
         LiftOptions(flip_ratio=2.0)
     with pytest.raises(InputError, match="min_score"):

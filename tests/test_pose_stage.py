@@ -64,7 +64,7 @@ def test_all_tracks_from_poses_without_track_ids(tracked):
     c = out.counts
     # every input pose accounted for
     assert sum(c[k] for k in STATUS_NAMES) == c["read"] == len(poses)
-    assert c["used"] + c["duplicate"] + c["not_lifted"] == c["given"] + c["assigned"]
+    assert c["used"] + c["duplicate"] + c["not_lifted"] + c["same_body"] + c["foreign_dropped"] == c["given"] + c["assigned"]
     # the pose ran on its own track's box: the overlap gives it back
     ok = a.poses.track_id >= 0
     assert ok.mean() > 0.95 and np.mean(a.poses.track_id[ok] == truth[ok]) > 0.97
@@ -158,3 +158,36 @@ def test_demo_pose_table_counts_a_frame_without_a_pose_as_a_miss():
     assert head[1:3] == ["MPJPE", "PCK@150mm (all performing frames)"]
     pck, share = (float(t.columns[k]._cells[0].rstrip("%")) for k in (2, 4))
     assert share < 100 and pck <= share  # triangulation misses frames: PCK over all of them cannot exceed the share
+
+
+def test_stage_holes_are_counted_and_warned(tracked):
+    """Poses of the target only with --all-tracks, a track_id naming no track, scores above 1, no
+    poses, no target: counted and warned, or a clear error; never a crash or a silent drop."""
+    from dataclasses import replace
+
+    from gymtrack.errors import GymtrackWarning, InputError
+    from gymtrack.pose.stage import NoTargetError, check_liftable
+    from gymtrack.poses import Poses2D
+    from gymtrack.tracking.types import Target
+
+    sim, res = tracked
+    poses = _model(sim, res.target_boxes)
+    with pytest.warns(GymtrackWarning, match=r"tracks have no 2D pose assigned and get no 3D skeleton"):
+        out = lift_poses(res, sim.rig, sim.scene, poses, all_tracks=True)
+    n_tracks = len(np.unique(res.tracks.track_id))
+    assert out.counts["tracks_without_pose"] == n_tracks - len(np.unique(out.poses3d.track_id)) > 0
+    odd = replace(poses, track_id=poses.track_id.copy(), keypoints=poses.keypoints.copy())
+    odd.track_id[:40] = 9999
+    odd.keypoints[40:60, :, 2] = np.where(odd.keypoints[40:60, :, 2] > 0, 1.0373, 0)
+    with pytest.warns(GymtrackWarning, match=r"40 poses name a track_id the track output does not have \(9999\)"):
+        out = lift_poses(res, sim.rig, sim.scene, odd)
+    assert out.counts["unknown_track"] == 40 and out.counts["used"] == len(poses) - 40
+    assert out.counts["scores_clipped"] == int((odd.keypoints[40:60, :, 2] > 1).sum()) > 0
+    assert (out.poses3d.score <= 1).all()
+    with pytest.raises(InputError, match="no 2D poses to lift"):
+        check_liftable(res, Poses2D.empty(COCO17, sim.rig.names), all_tracks=True)
+    no_target = replace(res, target=Target(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 3)),
+                                           np.zeros(0, np.int8)))
+    with pytest.raises(NoTargetError, match="no target frames.*--all-tracks"):
+        check_liftable(no_target, poses, all_tracks=False)
+    check_liftable(no_target, poses, all_tracks=True)

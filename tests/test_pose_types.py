@@ -62,8 +62,8 @@ def test_index_and_lookup():
     assert COCO17.index(["right_ankle", "neck", "nose"]).tolist() == [16, -1, 0]
     assert COCO17.index([]).shape == (0,)
     assert get_skeleton("body25") is BODY25
-    with pytest.raises(InputError, match="unknown skeleton 'coco18'"):
-        get_skeleton("coco18")
+    with pytest.raises(InputError, match="unknown skeleton 'coco19'"):
+        get_skeleton("coco19")
     sk = custom_skeleton(["head", "neck", "left_wrist", "right_wrist", "left_elbow"])
     assert sk.name == "custom" and sk.flip.tolist() == [0, 1, 3, 2, 4]
     assert {tuple(sorted(p)) for p in sk.bones.tolist()} == {(0, 1), (2, 4)}

@@ -35,7 +35,7 @@ def test_seed_reproduces_files_bit_for_bit(written, tmp_path):
     sim, out = written
     simulate_routine("still_rings", n_cam=3, seed=7, seconds=12.0, out=tmp_path / "again")
     a, b = _files(out), _files(tmp_path / "again")
-    assert a.keys() == b.keys() and len(a) == 4 + 4 + 3 + 2  # detections, gt boxes, gt csv/csv/json, yaml
+    assert a.keys() == b.keys() and len(a) == 4 + 4 + 4 + 2  # detections, gt boxes, gt csv/csv/json/elements, yaml
     for k in a:
         assert a[k] == b[k], k
     simulate_routine("still_rings", n_cam=3, seed=8, seconds=12.0, out=tmp_path / "other")

@@ -23,7 +23,7 @@ from ..formats.atomic import MARKER, read_marker
 __all__ = ["MARKER", "STEPS", "BatchRoutine", "parse_steps", "find_routines", "output_complete", "marker_inputs"]
 
 #: The steps a batch can run, in the order they run.
-STEPS: tuple[str, ...] = ("track", "pose", "eval")
+STEPS: tuple[str, ...] = ("track", "pose", "analyse", "eval")
 
 
 @dataclass(frozen=True)

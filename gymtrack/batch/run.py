@@ -95,14 +95,15 @@ def write_batch_files(out: str | Path, result: BatchResult, meta: Mapping) -> di
 def run_batch(source: str | Path, out: str | Path, steps: tuple[str, ...] = STEPS, mode: str = DEFAULT_MODE,
               workers: int | None = None, scheduler: str | None = None, force: bool = False, mot: bool = True,
               on_row: Callable[[dict, BatchResult], None] | None = None, log: Callable[[str], None] | None = None,
-              faults: Mapping[str, str] | None = None) -> BatchResult:
+              faults: Mapping[str, str] | None = None, routine_options: Mapping | None = None) -> BatchResult:
     """Run ``steps`` on every routine of ``source`` into ``out``; write batch.csv / batch.json.
 
     source: a folder of routines or a list file (:func:`.routines.find_routines`); workers:
     LocalCluster processes (default one per CPU) when no ``scheduler`` address is given;
     force: redo complete routines; on_row: called with each finished row and the result so far;
     log: one line per worker (its numba cache); faults: routine name -> "exit" | "raise" | "hang", the
-    test hook of :func:`.steps.process_routine`. Ctrl-C: the queued routines are cancelled, the
+    test hook of :func:`.steps.process_routine`; routine_options: ``calibration`` / ``keypoints`` for
+    every routine (:func:`.steps.run_steps`). Ctrl-C: the queued routines are cancelled, the
     files are written with what finished (``interrupted`` set) and KeyboardInterrupt is re-raised.
     """
     from ..errors import InputError
@@ -127,7 +128,8 @@ def run_batch(source: str | Path, out: str | Path, steps: tuple[str, ...] = STEP
         if on_row:
             on_row(row, result)
 
-    args = [(r, str(out), tuple(steps), mode, force, mot, faults.get(r.name)) for r in routines]
+    ropts = {k: str(v) for k, v in (routine_options or {}).items() if v is not None}
+    args = [(r, str(out), tuple(steps), mode, force, mot, faults.get(r.name), ropts) for r in routines]
     t0 = time.perf_counter()
     finished = False
     try:

@@ -1,9 +1,9 @@
-"""One routine of a batch, in a worker: the steps track, pose, eval into ``<out>/<routine>/``.
+"""One routine of a batch, in a worker: the steps track, pose, analyse, eval into ``<out>/<routine>/``.
 
 Paper: Section III (the tracker, :func:`gymtrack.tracking.track_detections`), III-D (the pose
-stage, :func:`gymtrack.pose.stage.lift_poses`) and IV-A (the metrics,
+stage, :func:`gymtrack.pose.stage.lift_poses`; the judging layer, :func:`gymtrack.analysis.analyse`) and IV-A (the metrics,
 :func:`gymtrack.eval.score.score_output`). Each step does what its command does
-(``gymtrack track``, ``gymtrack pose``, ``gymtrack eval``) and reads its inputs back from the
+(``gymtrack track``, ``gymtrack pose``, ``gymtrack analyse``, ``gymtrack eval``) and reads its inputs back from the
 files the previous step wrote, so a batch gives the files and numbers of running the commands
 one routine at a time.
 
@@ -83,15 +83,19 @@ def _previous_row(dest: Path) -> dict:
 
 
 def run_steps(routine: BatchRoutine, staging: Path, steps: tuple[str, ...], mode: str, mot: bool = True,
-              fault: str | None = None) -> dict:
+              fault: str | None = None, routine_options: dict | None = None) -> dict:
     """Run ``steps`` on one routine, writing into ``staging``; returns frames, metrics and counts.
 
     Without ``track`` the staging folder must already hold the track outputs (a copy of the
-    previous ones). Raises whatever a step raises.
+    previous ones). Raises whatever a step raises. ``routine_options``: ``calibration`` (one file
+    for every routine) and ``keypoints`` (a folder inside each routine), as ``load_routine`` takes.
     """
     from ..formats.routine import load_routine
 
-    r = load_routine(routine.path)
+    ropts = dict(routine_options or {})
+    if ropts.get("keypoints") is not None:
+        ropts["keypoints"] = Path(routine.path) / ropts["keypoints"]
+    r = load_routine(routine.path, **ropts)
     info: dict = {}
     if "track" in steps:
         from ..formats.outputs import write_outputs
@@ -114,11 +118,19 @@ def run_steps(routine: BatchRoutine, staging: Path, steps: tuple[str, ...], mode
         write_poses_3d(staging / "poses_3d.csv", res.poses3d)
         info["pose"] = {k: (int(v) if isinstance(v, (int, float)) and float(v).is_integer() else v)
                         for k, v in res.summary().items()}
+    if "analyse" in steps:
+        from ..analysis.folder import analyse_output, write_analysis
+
+        a = analyse_output(routine.path, staging)  # as `gymtrack analyse` reads it
+        notes = write_analysis(a, staging / "analysis")
+        info["analysis"] = {k: a.summary[f"{k}s"] for k in ("flight", "landing", "hold", "circle", "turn")}
+        if notes:
+            info["analysis"]["notes"] = notes
     if "eval" in steps:
         if r.has_gt:
             from ..eval.score import score_output
 
-            score = score_output(routine.path, staging, mot=mot)
+            score = score_output(routine.path, staging, mot=mot, **ropts)
             (staging / "eval.json").write_text(json.dumps(score, indent=1, default=str, allow_nan=True) + "\n")
             info["metrics"] = metrics_of(score)
         else:
@@ -127,7 +139,8 @@ def run_steps(routine: BatchRoutine, staging: Path, steps: tuple[str, ...], mode
 
 
 def process_routine(routine: BatchRoutine, out_root: str, steps: tuple[str, ...], mode: str = DEFAULT_MODE,
-                    force: bool = False, mot: bool = True, fault: str | None = None) -> dict:
+                    force: bool = False, mot: bool = True, fault: str | None = None,
+                    routine_options: dict | None = None) -> dict:
     """Run one routine into ``<out_root>/<routine.name>/`` (a worker task); returns its batch.csv row.
 
     Skipped (``status`` ``"skipped"``, the previous row's frames and metrics) when the folder is
@@ -151,10 +164,10 @@ def process_routine(routine: BatchRoutine, out_root: str, steps: tuple[str, ...]
                            protect=[routine.path]) as staging:
             if "track" not in steps:  # the later steps add to a copy of the earlier outputs
                 shutil.copytree(dest, staging, ignore=shutil.ignore_patterns(MARKER), dirs_exist_ok=True)
-            info = run_steps(routine, staging, steps, mode, mot, fault)
+            info = run_steps(routine, staging, steps, mode, mot, fault, routine_options)
             row = {**base, "frames": info.get("frames", prev.get("frames", 0)), **info.get("metrics", {}),
                    "seconds": round(time.perf_counter() - t0, 3)}
-            saved = {**row, "steps": list(steps), "mode": mode, **{k: info[k] for k in ("pose", "note") if k in info}}
+            saved = {**row, "steps": list(steps), "mode": mode, **{k: info[k] for k in ("pose", "analysis", "note") if k in info}}
             (staging / ROW_FILE).write_text(json.dumps(saved, indent=1) + "\n")
         return row
     except Exception as exc:  # one routine's failure is its row, never the batch's

@@ -1,7 +1,7 @@
-"""``gymtrack batch``: many routines through track, pose and eval, on Dask (:mod:`gymtrack.batch`).
+"""``gymtrack batch``: many routines through track, pose, analyse and eval, on Dask (:mod:`gymtrack.batch`).
 
 Paper: Sections III-IV over a folder of routines (the paper's 140 performances).
-``gymtrack batch <folder-or-list> --out <out> [--steps track,pose,eval] [--mode cascade]
+``gymtrack batch <folder-or-list> --out <out> [--steps track,pose,analyse,eval] [--mode cascade]
 [--workers N | --scheduler tcp://host:8786] [--force]`` writes ``<out>/<routine>/`` for every
 routine, ``<out>/batch.csv`` and ``<out>/batch.json``; complete routines are skipped, failed ones
 reported, and a second run redoes only what is not complete. Exit status 1 when a routine
@@ -28,12 +28,16 @@ console = Console()
 def batch(
     source: Path = typer.Argument(..., help="folder of routines (every sub-folder with a scene.yaml) or a list file, one routine folder a line"),
     out: Path = typer.Option(..., "--out", "-o", help="output folder: <routine>/ per routine, batch.csv, batch.json"),
-    steps: str = typer.Option("track,pose,eval", "--steps", help="comma-separated: track, pose, eval"),
+    steps: str = typer.Option("track,pose,eval", "--steps", help="comma-separated: track, pose, analyse, eval"),
     mode: str = typer.Option(DEFAULT_MODE, "--mode", "-m", help="cascade (the paper) | cascade+ (beyond it) | triangulation | plane"),
     workers: int = typer.Option(0, "--workers", "-w", help="LocalCluster worker processes (0: one per CPU); ignored with --scheduler"),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="address of a running Dask scheduler, e.g. tcp://host:8786"),
     force: bool = typer.Option(False, "--force", help="redo routines whose outputs are already complete (and replace routine folders under OUT that are not gymtrack outputs)"),
     mot: bool = typer.Option(True, "--mot/--no-mot", help="eval: also score all people (MOTA, IDF1)"),
+    calibration: Optional[Path] = typer.Option(None, "--calibration", help="one calibration file for every routine "
+                                               "(default: each routine's own, or its Pose2Sim project's)"),
+    keypoints: Optional[str] = typer.Option(None, "--keypoints", "-k", help="the 2D poses' folder inside each routine "
+                                            "(default: keypoints/, else Pose2Sim's pose/)"),
 ) -> None:
     """Run many routines on a Dask cluster (local processes by default); resumable, failures isolated."""
     from gymtrack.batch import find_routines, parse_steps, run_batch
@@ -56,7 +60,9 @@ def batch(
 
         try:
             res = run_batch(source, out, step_list, mode, workers or None, scheduler, force, mot, on_row=on_row,
-                            log=lambda s: bar.console.print(s, highlight=False))
+                            log=lambda s: bar.console.print(s, highlight=False),
+                            routine_options={"calibration": calibration and Path(calibration).absolute(),
+                                             "keypoints": keypoints})
         except KeyboardInterrupt:
             bar.stop()
             console.print(f"[yellow]interrupted[/]: finished routines kept; {out / 'batch.csv'} lists them; "

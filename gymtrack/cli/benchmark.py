@@ -47,6 +47,24 @@ def _methods(text: str) -> list[str]:
     return out
 
 
+def _seeds(text: Optional[str], suite: Optional[Path]) -> list[int]:
+    """``--seeds`` as integers (empty without it); an InputError naming the option when it is not
+    a list of integers or comes with ``--suite``."""
+    from gymtrack.errors import InputError
+
+    if text is None:
+        return []
+    try:
+        out = [int(x) for x in text.replace(" ", ",").split(",") if x.strip()]
+    except ValueError:
+        raise InputError(f"expected comma-separated integers, got {text!r}", field="--seeds") from None
+    if not out or len(set(out)) != len(out):
+        raise InputError(f"expected distinct seeds, got {text!r}", field="--seeds")
+    if suite is not None:
+        raise InputError("--seeds simulates its own suites (OUT/suite-s<seed>); give --suite or --seeds, not both", field="--seeds")
+    return out
+
+
 def print_summary(rows: list[dict]) -> list:
     """Table 5 and the targets, with rich; returns the claims (:func:`gymtrack.eval.aggregate.claims`)."""
     from gymtrack.eval.aggregate import claims, table5
@@ -89,6 +107,34 @@ def print_pose_claims(rows: list[dict]) -> list:
     return found
 
 
+def print_judging(rows: list[dict]) -> list:
+    """Judging measurements: pooled per n_cam and method, the definitions check, the targets; returns the claims."""
+    from gymtrack.eval.judging import HEADER, judging_line, judging_claims, judging_tables
+
+    t = judging_tables(rows)
+    if not t["overall"] and not t["truth"]:
+        return []
+    tab = Table(title="Judging measurements (pooled over apparatus; per apparatus in the report)", title_justify="left")
+    keep = range(8)  # flights, counts, shape, time, apex, knee, hip: the rest is in the report
+    tab.add_column("n")
+    tab.add_column("skeleton", no_wrap=True, min_width=13)
+    for col in [HEADER[i] for i in keep]:
+        tab.add_column(col)
+    for (n, m), s in sorted(t["overall"].items()):
+        line = judging_line(s)
+        tab.add_row(str(n), m, *[line[i] for i in keep])
+    if "all" in t["truth"]:
+        line = judging_line(t["truth"]["all"])
+        tab.add_row("-", "true skeleton", *[line[i] for i in keep])
+    console.print(tab)
+    for e in t["errors"]:
+        console.print(f"[red]analysis failed:[/] {e}", highlight=False)
+    found = judging_claims(rows)
+    console.print(claims_table("Judging targets (cascade+, pooled over apparatus)", found,
+                               lambda v: "-" if not np.isfinite(v) else f"{v:.3g}"))
+    return found
+
+
 @app.command()
 def benchmark(
     out: Path = typer.Option(..., "--out", "-o", help="output folder: report.md, CSV, JSON, plots"),
@@ -108,6 +154,11 @@ def benchmark(
                                 "desync, knock, dropped frames, silent camera; clean / with the fault / corrected"),
     no_pose: bool = typer.Option(False, "--no-pose", help="skip the target's 3D pose (Fig. 7 table, lifting ablation)"),
     mvor: Optional[Path] = typer.Option(None, "--mvor", help="MVOR folder for the real-keypoints pose section (default: $GYMTRACK_MVOR or shared/data/mvor above the project; skipped with a note if absent)"),
+    seeds: Optional[str] = typer.Option(None, "--seeds", help="comma-separated base seeds, e.g. 0,1,2: one default suite "
+                                        "per seed (OUT/suite-s<seed>, simulated unless there), pooled; the headline figures "
+                                        "get 90 % bootstrap intervals over routines"),
+    n_cams: Optional[str] = typer.Option(None, "--n-cams", help="comma-separated: only the suite's routines with these "
+                                         "n_cam (e.g. 2)"),
     check: bool = typer.Option(False, "--check", help="exit with status 1 when a target (claim) fails or a run fails"),
     ablation: bool = typer.Option(False, "--ablation", help="instead of the methods: cascade+ with each ingredient beyond "
                                   "the paper switched off alone, and the cascade with each added alone (target FR / AED, "
@@ -120,7 +171,16 @@ def benchmark(
 
     method_list = _methods(methods)
     n_jobs = jobs if jobs > 0 else (os.cpu_count() or 1)
-    if suite is None:
+    seed_list = _seeds(seeds, suite)
+    if seed_list:
+        from gymtrack.eval.benchmark import seeded_suites
+
+        console.print(f"--seeds: one suite per seed {', '.join(map(str, seed_list))} ({per_apparatus} routines per apparatus, "
+                      f"each with n_cam = 2, 3, 4) in [bold]{out}/suite-s<seed>[/]")
+        specs = seeded_suites(out, seed_list, per_apparatus, seconds or None, jobs=n_jobs,
+                              progress=lambda k, n, a: console.print(f"  simulated {a} ({k}/{n})"))
+        suite = out
+    elif suite is None:
         suite = out / "suite"
         if not (suite / "suite.json").is_file():
             console.print(f"no --suite: simulating the default suite ({per_apparatus} routines per apparatus, each with "
@@ -129,7 +189,18 @@ def benchmark(
                                    progress=lambda k, n, a: console.print(f"  simulated {a} ({k}/{n})"))
         else:
             console.print(f"no --suite: using the suite already simulated in [bold]{suite}[/]")
-    specs = read_suite(suite)
+    if not seed_list:
+        specs = read_suite(suite)
+    if n_cams:
+        from gymtrack.errors import InputError
+
+        try:
+            keep = {int(x) for x in n_cams.split(",") if x.strip()}
+        except ValueError:
+            raise InputError(f"expected comma-separated integers, got {n_cams!r}", field="--n-cams") from None
+        specs = [s for s in specs if s.n_cam in keep]
+        if not specs:
+            raise InputError(f"no routine of the suite has n_cam in {sorted(keep)}", field="--n-cams")
     runner = None
     if not scheduler and n_jobs > 1 and importlib.util.find_spec("distributed") is None:
         console.print("[yellow]note:[/] Dask is not installed (the 'batch' extra: pip install 'gymtrack[batch]'): "
@@ -185,9 +256,15 @@ def benchmark(
         mv = run_mvor_pose(mvor, log=lambda s: console.print("  " + s))
         if not mv.get("available"):
             console.print(f"[yellow]{mv['note']}[/]")
-    files = write_benchmark(run, out, meta={"suite": str(suite), "methods": ", ".join(method_list)}, wildtrack=wt, mvor=mv,
-                             dropout=drop)
+    from gymtrack.eval.explain import explain_markdown
+    from gymtrack.eval.pooled import pooled_markdown
+
+    pooled_md = pooled_markdown(run.rows)
+    explain_md = explain_markdown(run.rows)
+    meta = {"suite": str(suite) + (f" (seeds {', '.join(map(str, seed_list))})" if seed_list else ""), "methods": ", ".join(method_list)}
+    files = write_benchmark(run, out, meta=meta, wildtrack=wt, mvor=mv, dropout=drop, sections=[pooled_md, explain_md])
     found = print_summary(run.rows)
+    console.print(pooled_md, highlight=False)
     if "cascade+" in method_list:
         from gymtrack.eval.plus_claims import plus_claims
         from gymtrack.eval.render import fmt
@@ -197,7 +274,7 @@ def benchmark(
                                    lambda v: fmt(v, "ratio") if abs(v) < 100 or not np.isfinite(v) else fmt(v, "fps")))
         found = found + plus
     if not no_pose:
-        found = found + print_pose_claims(run.rows)
+        found = found + print_pose_claims(run.rows) + print_judging(run.rows)
     failed = [r for r in run.rows if r.get("error")]
     if failed:
         console.print(f"[red]{len(failed)} runs failed[/] (listed in the report), e.g. {failed[0]['routine']} / "

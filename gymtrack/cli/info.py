@@ -20,7 +20,8 @@ from rich.console import Console
 from rich.table import Table
 
 from gymtrack.cli import app
-from gymtrack.cli.options import calibration_format_option, read_routine, silent_seconds_option, strict_option, units_option
+from gymtrack.cli.options import (calibration_format_option, calibration_option, keypoints_option, read_routine,
+                                  silent_seconds_option, skeleton_option, strict_option, units_option)
 from gymtrack.cli.report import REPORTER
 from gymtrack.formats.checks import StreamChecks
 from gymtrack.formats.routine import Routine
@@ -121,6 +122,25 @@ def scene_table(scene: Scene) -> Table:
     return t
 
 
+def video_size_lines(routine: Routine) -> list[str]:
+    """One line per camera video in ``videos/``: its size against the calibration's (another size
+    warns through :func:`gymtrack.formats.video.size_scale`; ``--strict`` makes it exit 3)."""
+    from gymtrack.formats.video import VideoReader, find_videos, size_scale
+
+    if not (routine.path / "videos").is_dir():
+        return []
+    out = []
+    for name, path in find_videos(routine.path, routine.rig.names).items():
+        with VideoReader(path) as r:
+            size = r.size
+        cam = routine.rig[routine.rig.names.index(name)]
+        calibrated = tuple(int(v) for v in cam.size)
+        scale = size_scale(name, calibrated, size, path)
+        out.append(f"video {path.name}: {size[0]}x{size[1]}" + ("" if scale == 1 else f", scaled by {scale:.4f} to the "
+                                                                   f"calibrated {calibrated[0]}x{calibrated[1]}"))
+    return out
+
+
 def print_routine_info(routine: Routine, console: Console | None = None, checks: StreamChecks | None = None) -> None:
     """Print every table of ``gymtrack info`` for a loaded routine (and its stream checks)."""
     console = console or Console()
@@ -132,6 +152,8 @@ def print_routine_info(routine: Routine, console: Console | None = None, checks:
     for note in rep.notes:
         console.print(f"  note: {note}", highlight=False)
     console.print(cameras_table(routine.rig))
+    for line in video_size_lines(routine):
+        console.print(line, highlight=False)
     console.print(opposite_table(routine.rig, routine.scene))
     console.print(detections_table(routine, checks))
     if checks and checks.frame_range:
@@ -142,6 +164,17 @@ def print_routine_info(routine: Routine, console: Console | None = None, checks:
     if routine.ignored:
         console.print(f"ignored in detections/ (not .txt): {', '.join(p.name for p in routine.ignored)}", highlight=False)
     console.print(scene_table(routine.scene))
+    from gymtrack.formats.floor_check import standing_bottoms
+
+    floor = standing_bottoms(routine.detections, routine.rig)
+    sc = routine.scene
+    if floor is None:
+        console.print("floor: too few standing people seen by two views to say where the box bottoms lie", highlight=False)
+    else:
+        console.print(f"floor: {floor.describe()}; target.h_bot is {sc.target.h_bot:g} m above z = 0", highlight=False)
+        advice = floor.advice(sc.performance_space[2], sc.target.h_bot)
+        if advice:
+            REPORTER.warn(advice)
     if routine.has_gt:
         have = ", ".join(routine.gt) or "no known files"
         console.print(f"ground truth: gt/ ({have})", highlight=False)
@@ -154,6 +187,9 @@ def info(
     routine: Optional[Path] = typer.Argument(None, help="routine folder (cameras.yaml, scene.yaml, detections/<camera>.txt)"),
     calibration_format: Optional[str] = calibration_format_option(),
     units: Optional[str] = units_option(),
+    calibration: Optional[Path] = calibration_option(),
+    keypoints: Optional[Path] = keypoints_option(),
+    skeleton: Optional[str] = skeleton_option(),
     silent_seconds: float = silent_seconds_option(),
     strict: bool = strict_option(),
     system: bool = typer.Option(False, "--system", help="print versions, the numba cache and CPUs (for a bug report)"),
@@ -175,6 +211,13 @@ def info(
             return
     if routine is None:
         raise InputError("give a routine folder (gymtrack info <routine>), or --system", field="ROUTINE")
-    r, checks = read_routine(routine, calibration_format, units, silent_seconds)
+    r, checks = read_routine(routine, calibration_format, units, silent_seconds, calibration, keypoints, skeleton)
+    if r.keypoints_report is None and r.keypoints_path is not None:  # poses beside detections: check them too
+        from gymtrack.formats.keypoints import KeypointsReport, read_keypoints
+
+        report = KeypointsReport()
+        read_keypoints(r.keypoints_path, r.rig.names, skeleton=skeleton, report=report)
+        for line in report.lines():
+            console.print(f"2D poses: {line}", highlight=False, soft_wrap=True)
     print_routine_info(r, console, checks)
     REPORTER.check_strict(strict)

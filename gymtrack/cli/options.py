@@ -33,6 +33,22 @@ def units_option() -> Optional[str]:
     return typer.Option(None, "--units", help="units of an aniposelib / EasyMocap calibration's translations: m | cm | mm")
 
 
+def calibration_option() -> Optional[Path]:
+    return typer.Option(None, "--calibration", help="the calibration file, any name (default: found in ROUTINE, or a "
+                        "Pose2Sim project's calibration/Calib*.toml)")
+
+
+def keypoints_option() -> Optional[Path]:
+    return typer.Option(None, "--keypoints", "-k", help="the 2D poses' folder, any layout the keypoints readers take "
+                        "(default: ROUTINE/keypoints, else Pose2Sim's ROUTINE/pose)")
+
+
+def skeleton_option() -> Optional[str]:
+    return typer.Option(None, "--skeleton", help="joint order of the 2D poses: body25 | body25b | coco17 | halpe26 | "
+                        "coco_wholebody | coco18, or the joint names in file order, comma-separated (default: the file's, else "
+                        "recognised from the joints' layout)")
+
+
 def strict_option() -> bool:
     return typer.Option(False, "--strict", help="exit with status 3 when there was any warning (and write no outputs)")
 
@@ -47,11 +63,18 @@ def overwrite_option() -> bool:
 
 def read_routine(
     path: Path, calibration_format: Optional[str] = None, units: Optional[str] = None,
-    silent_seconds: float = SILENT_SECONDS,
+    silent_seconds: float = SILENT_SECONDS, calibration: Optional[Path] = None, keypoints: Optional[Path] = None,
+    skeleton: Optional[str] = None,
 ) -> tuple[Routine, StreamChecks]:
-    """Load a routine with the calibration options; report the calibration notes and stream checks."""
+    """Load a routine with the calibration and keypoints options; report the calibration notes,
+    where the 2D poses came from (when read here: no ``detections/``) and the stream checks."""
     opts = {} if units is None else {"units": units}
-    r = load_routine(path, calibration_format, **opts)
+    r = load_routine(path, calibration_format, calibration=calibration, keypoints=keypoints, skeleton=skeleton, **opts)
+    if r.keypoints_report is not None:
+        for line in r.keypoints_report.lines():
+            REPORTER.console.print(f"2D poses: {line}", highlight=False, soft_wrap=True)
+    if r.pose_boxes is not None:
+        REPORTER.console.print(r.pose_boxes.describe(), highlight=False, soft_wrap=True)
     checks = check_detections(r.detections, r.rig, r.scene.fps, silent_seconds)
     # a pause of hours costs the tracker nothing, but a wrong frame number is likelier
     for msg in r.gap_warnings() + checks.warnings():

@@ -4,7 +4,8 @@ Paper: the whole system of Section III in one command -- the person detector on 
 (III-A), the cascaded tracker and the target gymnast (III-B to III-D), the top-down pose model on
 the crops of ``b_buf`` and the lifted 3D pose (III-D, last paragraph). Writes into ``<out>``
 every output of ``docs/formats.md``: ``detections/`` (the detector's boxes, so ``track`` can be
-rerun), the track outputs, ``keypoints/`` and ``poses_3d.csv``; shows a progress bar per stage
+rerun), the track outputs, ``keypoints/``, ``poses_3d.csv`` and ``analysis/`` (what judges measure,
+:mod:`gymtrack.analysis`); shows a progress bar per stage
 and the time per stage.
 """
 
@@ -19,6 +20,7 @@ import typer
 from gymtrack.cli import app
 from gymtrack.modes import DEFAULT_MODE
 from gymtrack.cli.options import calibration_format_option, overwrite_option, units_option
+from gymtrack.cli.locking import hold, wait_option
 from gymtrack.cli.report import interrupts
 from gymtrack.cli.detect import (build_models, console, detect_report, load_rig_scene, open_routine_videos,
                                  run_detector, stage_progress, times_table, write_detections_atomic)
@@ -38,10 +40,11 @@ def run(
     overwrite: bool = overwrite_option(),
     calibration_format: Optional[str] = calibration_format_option(),
     units: Optional[str] = units_option(),
+    wait: float = wait_option(),
 ) -> None:
-    """Videos -> detections -> tracks -> 2D poses in b_buf -> 3D poses, in one command."""
+    """Videos -> detections -> tracks -> 2D poses in b_buf -> 3D poses -> judging measurements, in one command."""
     from gymtrack.errors import InputError
-    from gymtrack.formats.atomic import atomic_output
+    from gymtrack.formats.atomic import atomic_output, check_output_folder
     from gymtrack.pose.stage import LIFT_METHODS
     from gymtrack.modes import MODES
 
@@ -55,14 +58,15 @@ def run(
     inputs = {"routine": Path(routine).absolute(), "detector": det.session.path.absolute(),
               "pose_model": pm.session.path.absolute(), "mode": mode, "lift": lift, "all_tracks": all_tracks,
               "calibration_format": calibration_format, "units": units}
-    with interrupts(), atomic_output(out, "run", inputs, overwrite=overwrite, protect=[routine]) as staging:
+    with interrupts(), hold(check_output_folder(out, overwrite, [routine]), "run", wait), \
+            atomic_output(out, "run", inputs, overwrite=overwrite, protect=[routine]) as staging:
         times = _stages(routine, staging, rig, scene, det, pm, mode, all_tracks, lift)
     console.print(times_table(times))
     console.print(f"outputs written to [bold]{out}[/]")
 
 
 def _stages(routine: Path, out: Path, rig, scene, det, pm, mode: str, all_tracks: bool, lift: str) -> list:
-    """The four stages into ``out`` (the staging folder); returns (stage, seconds, frames) rows."""
+    """The stages into ``out`` (the staging folder); returns (stage, seconds, frames) rows."""
     from gymtrack.cli.pose import pose_summary_table
     from gymtrack.cli.track import summary_table
     from gymtrack.formats.keypoints import write_keypoints
@@ -107,4 +111,19 @@ def _stages(routine: Path, out: Path, rig, scene, det, pm, mode: str, all_tracks
     write_poses_3d(out / "poses_3d.csv", res.poses3d)
     times.append(("lift", time.perf_counter() - t0, d.frames))
     console.print(pose_summary_table(res.summary()))
+
+    from gymtrack.analysis.folder import analyse_output, write_analysis
+    from gymtrack.cli.analyse import element_table
+    from gymtrack.errors import InputError
+
+    t0 = time.perf_counter()
+    try:  # the judging layer on the target's skeleton
+        a = analyse_output(routine, out)
+    except InputError as exc:  # no target or no pose: the run's other outputs stand
+        console.print(f"no analysis/: {exc}", highlight=False)
+        return times
+    for note in write_analysis(a, out / "analysis"):
+        console.print(note, highlight=False)
+    times.append(("analyse", time.perf_counter() - t0, d.frames))
+    console.print(element_table(a))
     return times

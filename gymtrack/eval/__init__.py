@@ -10,6 +10,8 @@
 * :mod:`.config`     the claims' thresholds and the data paths
 * :mod:`.score`      an output folder of ``gymtrack track`` scored against ``<routine>/gt/`` (``gymtrack eval``)
 * :mod:`.wildtrack`  the real-data section on WILDTRACK
+* :mod:`.elements`   judging measurements (elements, angles) scored against the simulator's ``gt/elements.json``
+* :mod:`.judging`    the benchmark's judging section: each method's skeleton analysed and scored
 
 Only the light modules are imported here; the others pull in the tracker and are imported on use.
 """

@@ -83,7 +83,7 @@ def ablation_markdown(table: Sequence[dict], note: Callable[[], str] | None = No
         "cascade (`+name`); what each does: `gymtrack.modes.Method`. FR (failure rate) and AED (m) of the target, "
         "MOTA and IDF1 of all people in S_track, each averaged over apparatus; WILDTRACK: the real-data section's "
         "set-up (2 fps, 7 views). Ray/plane fusion and online plane refinement act only where the scene asks for "
-        f"them (`params.fuse_plane`, `params.refine_plane`), which the preset scenes do not: not run.", "",
+        "them (`params.fuse_plane`, `params.refine_plane`), which the preset scenes do not: not run.", "",
         markdown_table(head, body), "",
     ]
     if note:

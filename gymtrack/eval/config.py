@@ -56,6 +56,20 @@ class BenchmarkConfig:
     plus_wildtrack_idf1: float = 0.6
     #: WILDTRACK: cascade+ ghost and duplicate outputs below this x the paper's cascade's (same run)
     plus_wildtrack_fp_over_cascade: float = 1 / 3
+    #: judging measurements (cascade+'s skeleton analysed, pooled over apparatus), n_cam = 4: flight recall and
+    #: precision, exact-salto, exact-twist and shape shares at least; median flight-time error (frames), apex
+    #: error (m), knee and hip angle errors (deg), hold deviation error (deg) at most; n_cam = 2: recall, saltos
+    judge_flight_recall_4: float = 0.95
+    judge_flight_precision_4: float = 0.95
+    judge_saltos_4: float = 0.95
+    judge_twists_4: float = 0.90
+    judge_shape_4: float = 0.90
+    judge_time_frames_4: float = 1.0
+    judge_apex_m_4: float = 0.05
+    judge_angle_deg_4: float = 8.0
+    judge_deviation_deg_4: float = 3.0
+    judge_saltos_2: float = 0.90
+    judge_flight_recall_2: float = 0.90
     #: the WILDTRACK dataset, relative to the current directory (the project root)
     wildtrack: Path = Path("../shared/data/wildtrack")
 

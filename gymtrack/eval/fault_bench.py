@@ -79,7 +79,7 @@ def run_faults(specs: Sequence[RoutineSpec], methods: Sequence[str] = FAULT_METH
         mid = int((r.detections.frame.min() + r.detections.frame.max()) // 2)
 
         def score(det, m, recalibrate=True):
-            res = track_detections(r.rig, r.scene, det, mode=m, recalibrate=recalibrate)
+            res = track_detections(r.rig, r.scene, det, mode=m, watch_cameras=True, recalibrate=recalibrate)
             return res, evaluate_routine(res, gt, r.scene, r.rig)
 
         base = {"routine": s.name, "apparatus": s.apparatus, "camera": r.rig.names[cam]}

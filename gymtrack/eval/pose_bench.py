@@ -97,10 +97,12 @@ class PoseGroundTruth:
         return self.joints[k[0]]
 
 
-def pose_columns(method: str, result, rig, scene, pgt: PoseGroundTruth, seed: int = 0) -> dict:
+def pose_columns(method: str, result, rig, scene, pgt: PoseGroundTruth, seed: int = 0, judging=None) -> dict:
     """``pose_<lift>_<part>`` columns of one method's run (empty for methods without pose).
 
     result: the method's TrackResult; the pose model runs on its ``target_boxes`` (b_buf).
+    judging: the routine's :class:`~gymtrack.eval.judging.JudgingTruth`: the robust lift is also
+    analysed and scored (``judge_parts``, :func:`gymtrack.eval.judging.judging_columns`).
     """
     if method not in POSE_METHODS:
         return {}
@@ -108,12 +110,12 @@ def pose_columns(method: str, result, rig, scene, pgt: PoseGroundTruth, seed: in
 
     t0 = time.perf_counter()
     try:
-        return _pose_columns(method, result, rig, scene, pgt, seed, t0)
+        return _pose_columns(method, result, rig, scene, pgt, seed, t0, judging)
     except Exception as exc:  # a pose failure must not lose the method's tracking row
         return {"pose_error": f"{type(exc).__name__}: {exc}"}
 
 
-def _pose_columns(method, result, rig, scene, pgt, seed, t0) -> dict:
+def _pose_columns(method, result, rig, scene, pgt, seed, t0, judging=None) -> dict:
     import time
 
     from ..pose.stage import lift_poses
@@ -132,6 +134,9 @@ def _pose_columns(method, result, rig, scene, pgt, seed, t0) -> dict:
         out.setdefault(_ERR, {})[name] = joint_errors(p.frame, p.xyz, p.skeleton.joints, pgt.frames, gt_xyz,
                                                       COCO17.joints, pgt.perf_frames)
         if name == "robust":
+            from .judging import judging_columns
+
+            out |= judging_columns(method, p, scene, judging)
             out["pose_poses_2d"] = len(poses)
             out["pose_unassigned"] = res.counts.get("unassigned", 0) + res.counts.get("rejected", 0)
     out["pose_seconds"] = time.perf_counter() - t0

@@ -8,7 +8,10 @@ any tracker's results written in that layout can be scored.
 
 Poses (MPJPE, PA-MPJPE, PCK, pose share of the target) are scored when both
 ``<out>/poses_3d.csv`` and ``<routine>/gt/keypoints_3d.csv`` exist and the pose stage's modules
-are installed; otherwise a note says why they were left out.
+are installed; otherwise a note says why they were left out. Judging measurements
+(:mod:`gymtrack.eval.elements`) are scored when both ``<out>/analysis/elements.json`` and
+``<routine>/gt/elements.json`` exist: the elements, and the angles of ``analysis/angles.csv``
+against the analysis of ``gt/keypoints_3d.csv``; they are also saved as ``<out>/analysis/scores.json``.
 """
 
 from __future__ import annotations
@@ -83,14 +86,65 @@ def _pose_scores(routine: Path, out: Path, result, gt, scene, notes: list[str]) 
     return {"mpjpe_mm": e.mpjpe, "pa_mpjpe_mm": e.pa_mpjpe, "pck": e.pck, "pose_share": e.pose_share, **e.as_dict()}
 
 
+def judging_scores(routine: Path, out: Path, scene, target_id: int, notes: list[str]) -> dict | None:
+    """The judging measurements of ``<out>/analysis/`` scored against ``<routine>/gt/``, or None with a
+    note naming what is absent; written to ``<out>/analysis/scores.json``."""
+    import json
+
+    from ..formats.elements import read_angles, read_elements
+    from .elements import angle_parts, element_parts, summarise_angles, summarise_elements
+
+    meas, truth = out / "analysis" / "elements.json", routine / "gt" / "elements.json"
+    absent = [str(p) for p in (meas, truth) if not p.is_file()]
+    if absent:
+        notes.append(f"judging measurements not scored: no {' and no '.join(absent)}")
+        return None
+    doc = read_elements(meas)
+    angles_path, kp_path = out / "analysis" / "angles.csv", routine / "gt" / "keypoints_3d.csv"
+    cols = read_angles(angles_path) if angles_path.is_file() else None
+    jt = None
+    if cols is None or not kp_path.is_file():
+        notes.append(f"angle and apex errors not scored: no {angles_path if cols is None else kp_path}")
+    else:
+        try:
+            from ..formats.gt_keypoints import read_keypoints_3d
+            from .judging import JudgingTruth
+
+            frames, pid, joints = read_keypoints_3d(kp_path)
+            k = np.flatnonzero(pid == target_id)
+            if not k.size:
+                raise RoutineError(f"no joints of the target (person {target_id})", source=kp_path)
+            jt = JudgingTruth.from_truth(truth, scene, frames, joints[k[0]], target_id)
+        except ImportError as exc:
+            notes.append(f"angle and apex errors not scored: the analysis stage is not installed ({exc.name})")
+    parts = element_parts(doc, read_elements(truth), frames=None if cols is None else cols["frame"],
+                          true_com_z=None if jt is None else jt.com_z)
+    res = {"elements": summarise_elements([parts]),
+           "angles": None if jt is None else summarise_angles([angle_parts(cols, jt.angles)])}
+    (out / "analysis" / "scores.json").write_text(json.dumps(_json_ready(res), indent=1) + "\n")
+    return res
+
+
+def _json_ready(v):
+    """NaN (nothing to average) as null: JSON has no NaN."""
+    if isinstance(v, dict):
+        return {str(k): _json_ready(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_json_ready(x) for x in v]
+    if isinstance(v, (float, np.floating)):
+        return None if not np.isfinite(v) else float(v)
+    return v
+
+
 def score_output(routine: str | Path, out: str | Path, mot: bool = True, calibration_format: str | None = None,
-                 **calibration_options) -> dict:
+                 explain: bool = False, **calibration_options) -> dict:
     """Score the output folder ``out`` against ``<routine>/gt/``.
 
     Returns a JSON-ready dict: ``routine``, ``out``, ``cameras``, ``target`` (:func:`target_summary`),
     ``people`` (:func:`people_summary`, None without ``mot``), ``poses`` (None when not scored),
     ``notes`` (what was left out and why) and ``row`` (the benchmark's additive parts, the same
-    keys and numbers as :func:`gymtrack.eval.benchmark.evaluate_routine`).
+    keys and numbers as :func:`gymtrack.eval.benchmark.evaluate_routine`); with ``explain``, also
+    ``explain``: the target's failed (frame, view) pairs by cause (:func:`gymtrack.eval.explain.explain_failures`).
     Raises :class:`InputError` naming the file when a needed file is missing or malformed.
     """
     from ..formats.routine import load_routine
@@ -110,9 +164,15 @@ def score_output(routine: str | Path, out: str | Path, mot: bool = True, calibra
     row = evaluate_routine(result, gt, r.scene, r.rig, mot=mot)
     if not mot:
         notes.append("all-people metrics not computed (--no-mot)")
+    why = None
+    if explain:
+        from .explain import explain_failures
+
+        why = explain_failures(result, r.detections, gt, r.scene, r.rig)
     return {
-        "routine": str(routine), "out": str(out), "cameras": list(r.rig.names),
+        "routine": str(routine), "out": str(out), "cameras": list(r.rig.names), **({"explain": why} if explain else {}),
         "target": target_summary(row), "people": people_summary(row),
         "poses": _pose_scores(routine, out, result, gt, r.scene, notes),
+        "judging": judging_scores(routine, out, r.scene, gt.target_id, notes),
         "notes": notes, "row": {k: (v.item() if isinstance(v, np.generic) else v) for k, v in row.items()},
     }

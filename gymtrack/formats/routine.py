@@ -11,6 +11,11 @@ Paper: the inputs of the whole pipeline (Section III): synchronised multi-camera
       detections/<camera>.txt one MOTChallenge file per camera, named after the camera
       keypoints/, videos/     optional
       gt/                     optional ground truth (persons_3d.csv, boxes_2d/, keypoints_3d.csv)
+
+Real projects are read as they come: the calibration may be any file (``calibration=``, the CLI's
+``--calibration FILE``) or a Pose2Sim project's ``Calib*.toml`` (:mod:`.pose2sim`); the 2D poses
+any folder (``keypoints=``) or Pose2Sim's ``pose/``. A routine with 2D poses and no
+``detections/`` gets its person boxes from the poses' joints (:mod:`.pose_boxes`), and says so.
 """
 
 from __future__ import annotations
@@ -21,8 +26,12 @@ from pathlib import Path
 from ..detections import Detections
 from ..errors import RoutineError
 from ..geometry.camera import Rig
+from ..poses import Poses2D
 from .calibration import CalibrationReport, find_calibration, read_calibration
+from .keypoints import KeypointsReport, read_keypoints
 from .motchallenge import ReadReport, read_detections
+from .pose2sim import find_keypoints_folder, find_project_calibration
+from .pose_boxes import PoseBoxes, boxes_from_poses
 from .scene import Scene, load_scene
 
 #: Ground-truth files the simulator writes under ``gt/`` (key -> relative path).
@@ -50,6 +59,10 @@ class Routine:
     gt: key of :data:`GT_FILES` -> path, for the ground-truth files present.
     ignored: files in ``detections/`` that are not ``.txt`` (listed, not read).
     shifted_out: boxes that scene.yaml's ``frame_offsets`` moved before frame 0 (left out, warned).
+    keypoints_path: the 2D poses' folder (given, ``keypoints/`` or Pose2Sim's ``pose/``), None if none.
+    poses: the 2D poses, when they were read to make boxes (no ``detections/``); else None.
+    keypoints_report: what reading them found (camera mapping, skeleton), when read.
+    pose_boxes: the boxes made from the poses, when there is no ``detections/``.
     """
 
     path: Path
@@ -63,6 +76,10 @@ class Routine:
     gt: dict[str, Path] = field(default_factory=dict)
     ignored: tuple[Path, ...] = ()
     shifted_out: int = 0
+    keypoints_path: Path | None = None
+    poses: Poses2D | None = None
+    keypoints_report: KeypointsReport | None = None
+    pose_boxes: PoseBoxes | None = None
 
     @property
     def camera_names(self) -> tuple[str, ...]:
@@ -82,7 +99,26 @@ class Routine:
         return p if p.is_file() else None
 
 
-def load_routine(path: str | Path, calibration_format: str | None = None, **calibration_options) -> Routine:
+def _calibration_path(path: Path, calibration: str | Path | None) -> Path:
+    if calibration is not None:
+        c = Path(calibration)
+        if not c.exists():
+            raise RoutineError("calibration not found (--calibration)", source=c)
+        return c
+    try:
+        return find_calibration(path, error=RoutineError)
+    except RoutineError as err:
+        if "several" in err.problem:
+            raise
+        found = find_project_calibration(path)
+        if found is None:
+            raise RoutineError(err.problem + "; or a Pose2Sim calibration/Calib*.toml; or give --calibration FILE",
+                               source=path) from None
+        return found
+
+
+def load_routine(path: str | Path, calibration_format: str | None = None, calibration: str | Path | None = None,
+                 keypoints: str | Path | None = None, skeleton=None, **calibration_options) -> Routine:
     """Read and cross-check a routine folder.
 
     Parameters
@@ -91,11 +127,15 @@ def load_routine(path: str | Path, calibration_format: str | None = None, **cali
     calibration_format, calibration_options: passed to
         :func:`~gymtrack.formats.calibration.read_calibration` (e.g. ``units="mm"`` for a
         ``calibration.toml``).
+    calibration: the calibration file (any name; default: found in the folder, or a Pose2Sim
+        project's ``Calib*.toml``).
+    keypoints: the 2D poses' folder (default ``keypoints/``, else ``pose/``).
+    skeleton: the poses' skeleton when they are read here (no ``detections/``).
 
     Raises RoutineError (naming the file or camera and saying how to fix it) for: a missing
-    folder, scene.yaml, calibration or ``detections/``; a detection file whose camera the
-    calibration lacks; a calibration camera with no detection file. Errors inside a file
-    (calibration, scene, detections) come as that file's own error type.
+    folder, scene.yaml or calibration; no ``detections/`` and no 2D poses; a detection file whose
+    camera the calibration lacks; a calibration camera with no detection file. Errors inside a
+    file (calibration, scene, detections, keypoints) come as that file's own error type.
     """
     path = Path(path)
     if not path.is_dir():
@@ -106,16 +146,31 @@ def load_routine(path: str | Path, calibration_format: str | None = None, **cali
             "missing scene.yaml: write one with at least 'apparatus: <preset>' or 'performance_space' (see shared/formats.md)",
             source=scene_path,
         )
-    calib_path = find_calibration(path, error=RoutineError)
+    calib_path = _calibration_path(path, calibration)
     rig, calib_report = read_calibration(calib_path, calibration_format, **calibration_options)
     scene = load_scene(scene_path)
+    kp_path = Path(keypoints) if keypoints is not None else find_keypoints_folder(path)
+    if keypoints is not None and not kp_path.exists():
+        raise RoutineError("no 2D keypoints there (--keypoints): give the folder of the pose files", source=kp_path)
 
+    gt_dir = path / "gt"
+    gt = {k: gt_dir / rel for k, rel in GT_FILES.items() if (gt_dir / rel).exists()}
+    common = dict(path=path, rig=rig, scene=scene, calibration_path=calib_path, calibration_report=calib_report,
+                  has_gt=gt_dir.is_dir(), gt=gt, keypoints_path=kp_path)
     det_dir = path / "detections"
     if not det_dir.is_dir():
-        raise RoutineError(
-            f"missing detections/ folder: add one MOTChallenge file per camera ({', '.join(n + '.txt' for n in rig.names)})",
-            source=det_dir,
-        )
+        if kp_path is None:
+            raise RoutineError(
+                f"missing detections/ folder: add one MOTChallenge file per camera ({', '.join(n + '.txt' for n in rig.names)}), "
+                "or 2D poses (keypoints/ or pose/, or --keypoints DIR) to derive the boxes from",
+                source=det_dir,
+            )
+        report = KeypointsReport()
+        poses, shifted_out = apply_frame_offsets(read_keypoints(kp_path, rig.names, skeleton=skeleton, report=report),
+                                                 scene.frame_offsets, rig.names, scene_path)
+        made = boxes_from_poses(poses)
+        return Routine(detections=made.detections, reports=made.reports(report.sources), poses=poses,
+                       keypoints_report=report, pose_boxes=made, shifted_out=shifted_out, **common)
     files = sorted(p for p in det_dir.iterdir() if p.is_file())
     txt = {p.stem: p for p in files if p.suffix == ".txt"}
     ignored = tuple(p for p in files if p.suffix != ".txt")
@@ -140,14 +195,7 @@ def load_routine(path: str | Path, calibration_format: str | None = None, **cali
         parts.append(d)
         reports.append(r)
     detections, shifted_out = apply_frame_offsets(Detections.concat(parts), scene.frame_offsets, rig.names, scene_path)
-
-    gt_dir = path / "gt"
-    gt = {k: gt_dir / rel for k, rel in GT_FILES.items() if (gt_dir / rel).exists()}
-    return Routine(
-        path=path, rig=rig, scene=scene, detections=detections, reports=tuple(reports),
-        calibration_path=calib_path, calibration_report=calib_report, has_gt=gt_dir.is_dir(), gt=gt, ignored=ignored,
-        shifted_out=shifted_out,
-    )
+    return Routine(detections=detections, reports=tuple(reports), ignored=ignored, shifted_out=shifted_out, **common)
 
 
 def apply_frame_offsets(rows, offsets: dict[str, int], names: tuple[str, ...], source: Path | None = None):

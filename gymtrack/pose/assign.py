@@ -27,6 +27,7 @@ from scipy.optimize import linear_sum_assignment
 
 from ..detections import Detections
 from ..poses import Poses2D
+from .assign_joints import JOINT_GATE, JOINT_WEIGHT, MIN_OVERLAP, joint_costs
 
 __all__ = ["GIVEN", "ASSIGNED", "UNASSIGNED", "REJECTED_NO_JOINTS", "REJECTED_FRAME", "STATUS_NAMES",
            "Assignment", "pose_boxes", "box_iou_pairs", "assign_poses"]
@@ -108,7 +109,7 @@ def _join(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def assign_poses(poses: Poses2D, boxes: Detections, min_iou: float = 0.3, keypoint_margin: float = 0.1,
-                 frame_range: tuple[int, int] | None = None) -> Assignment:
+                 frame_range: tuple[int, int] | None = None, rig=None) -> Assignment:
     """Assign the poses without a ``track_id`` to the 3D tracks whose boxes they overlap.
 
     poses: N poses (``camera`` indexes the same camera names as ``boxes``).
@@ -118,6 +119,8 @@ def assign_poses(poses: Poses2D, boxes: Detections, min_iou: float = 0.3, keypoi
     min_iou: gate; a pose whose best IoU with every free track is below it stays unassigned.
     frame_range: (first, last) frames of the tracker output; poses outside are rejected
         (default: the range of ``boxes``' frames; with no boxes every pose is unassigned).
+    rig: the cameras (same order); given, a second pass decides by the joints where boxes overlap
+        (:mod:`gymtrack.pose.assign_joints`).
     """
     n = len(poses)
     if tuple(boxes.camera_names) != tuple(poses.camera_names):
@@ -149,9 +152,21 @@ def assign_poses(poses: Poses2D, boxes: Detections, min_iou: float = 0.3, keypoi
         order = np.lexsort((-iou, ti, pi))
         pi, ti, iou = pi[order], ti[order], iou[order]
         first = np.r_[True, (pi[1:] != pi[:-1]) | (ti[1:] != ti[:-1])]
-        ok = first & (iou >= min_iou)
-        pi, ti, iou = pi[ok], ti[ok], iou[ok]
-        _hungarian(poses.frame * n_cam + poses.camera, pi, ti, iou, track, status, iou_out)
+        keep_pairs = first & (iou >= (MIN_OVERLAP if rig is not None else min_iou))
+        pi, ti, iou = pi[keep_pairs], ti[keep_pairs], iou[keep_pairs]
+        ok = iou >= min_iou
+        _hungarian(poses.frame * n_cam + poses.camera, pi[ok], ti[ok], iou[ok], track, status, iou_out)
+        if rig is not None and pi.size:  # second pass: the joints decide where boxes overlap
+            e = joint_costs(poses, rig, pi, ti, track)
+            agree = np.isfinite(e) & (e <= JOINT_GATE)
+            allowed = (ok & ~(np.isfinite(e) & (e > 4 * JOINT_GATE))) | agree
+            score = 1.0 - ((1.0 - iou) + JOINT_WEIGHT * np.nan_to_num(e, nan=0.0)) / (1.0 + JOINT_WEIGHT)
+            redo = np.unique(pi)
+            track[redo], status[redo], iou_out[redo] = -1, UNASSIGNED, np.nan
+            _hungarian(poses.frame * n_cam + poses.camera, pi[allowed], ti[allowed], score[allowed], track, status,
+                       iou_out)
+            won = np.flatnonzero(track[pi] == ti)
+            iou_out[pi[won]] = iou[won]
     return Assignment(replace(poses, track_id=track), status, iou_out)
 
 

@@ -37,8 +37,11 @@ def simulated_model_poses(routine, result, all_tracks: bool = False, seed: int =
 
 
 def routine_poses(routine, result, keypoints: str | Path | None = None, simulated_model: bool | None = None,
-                  all_tracks: bool = False, seed: int = 0):
-    """The 2D poses of a routine: from ``keypoints`` (default ``<routine>/keypoints``) or the simulated model.
+                  all_tracks: bool = False, seed: int = 0, skeleton=None, report=None):
+    """The 2D poses of a routine: from ``keypoints`` (default the routine's ``keypoints/`` or
+    Pose2Sim ``pose/`` folder; the poses the routine already read when it made its boxes from them)
+    or the simulated model. ``skeleton``: the poses' joint order (default: recognised);
+    ``report``: a :class:`~gymtrack.formats.keypoints.KeypointsReport` to fill in.
 
     simulated_model: True forces the simulated model, False forbids it, None (the batch's choice)
     uses ``<routine>/keypoints/`` when it exists, else the simulated model when the routine has
@@ -48,14 +51,20 @@ def routine_poses(routine, result, keypoints: str | Path | None = None, simulate
 
     if simulated_model and keypoints is not None:
         raise InputError("give either --keypoints or --simulated-model, not both", field="--keypoints")
-    kdir = Path(keypoints) if keypoints is not None else Path(routine.path) / "keypoints"
+    default = getattr(routine, "keypoints_path", None) or Path(routine.path) / "keypoints"
+    kdir = Path(keypoints) if keypoints is not None else Path(default)
     if simulated_model is None:
         simulated_model = keypoints is None and not kdir.exists() and routine.gt.get("keypoints_3d") is not None
     if simulated_model:
         return simulated_model_poses(routine, result, all_tracks, seed)
     if not kdir.exists():
-        raise InputError("no 2D keypoints: add ROUTINE/keypoints/<camera>.json, give --keypoints DIR, "
+        raise InputError("no 2D keypoints: add ROUTINE/keypoints/<camera>.json (or Pose2Sim's pose/), give --keypoints DIR, "
                          "or use --simulated-model on a simulated routine", source=kdir)
+    if getattr(routine, "poses", None) is not None and kdir == getattr(routine, "keypoints_path", None) and skeleton is None:
+        if report is not None and routine.keypoints_report is not None:
+            report.__dict__.update(routine.keypoints_report.__dict__)
+        return routine.poses
     from ..formats.routine import apply_frame_offsets
 
-    return apply_frame_offsets(read_keypoints(kdir, routine.rig.names), routine.scene.frame_offsets, routine.rig.names)[0]
+    poses = read_keypoints(kdir, routine.rig.names, skeleton=skeleton, report=report)
+    return apply_frame_offsets(poses, routine.scene.frame_offsets, routine.rig.names)[0]

@@ -23,25 +23,38 @@ not one that was lifted, e.g. a coach's pose without ``all_tracks``).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+import warnings
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Sequence
 
 import numpy as np
 
 from ..detections import Detections
-from ..errors import InputError
+from ..errors import GymtrackWarning, InputError
 from ..scene import Scene
 from ..geometry.camera import Rig
 from ..poses import HOW_NAMES, HOW_NONE, Poses2D, Poses3D
 from ..tracking.types import Target, Tracks3D, TrackResult
-from .assign import Assignment, assign_poses
+from .assign import GIVEN, Assignment, assign_poses
+from .exclusive import exclusive_bodies, foreign_bodies
 from .lift import LiftOptions, lift_track
+from .skeleton_check import ASYMMETRY_MAX, BONE_CV_MAX, skeleton_consistency
 
-__all__ = ["PoseStageResult", "Sequence3D", "nearest_plane_normal", "target_sequence", "track_sequences",
+__all__ = ["NoTargetError", "check_liftable", "PoseStageResult", "Sequence3D", "nearest_plane_normal", "target_sequence", "track_sequences",
            "dense_keypoints", "lift_poses", "pose_model_boxes", "read_track_result"]
 
 LIFT_METHODS: tuple[str, ...] = ("dlt", "robust")
+
+
+class NoTargetError(InputError):
+    """The track output has no target frame, and only the target was asked for."""
+
+    def __init__(self) -> None:
+        super().__init__("the track output has no target frames, so there is no target to lift: see the 'target' "
+                         "lines of summary.json and the track command's warnings for why (often the scene's target "
+                         "heights h_top / h_bot, its performance_space, or the calibration's units); give --all-tracks "
+                         "to lift every 3D track instead", field="target")
 
 
 @dataclass(frozen=True, eq=False)
@@ -130,6 +143,8 @@ def dense_keypoints(seq: Sequence3D, poses: Poses2D, n_cameras: int) -> tuple[np
     t = np.clip(np.searchsorted(seq.frame, poses.frame), 0, T - 1)
     mine = (seq.frame[t] == poses.frame) & (seq.track_id[t] == poses.track_id)
     rows = np.flatnonzero(mine)
+    if not rows.size:  # the sequence has no pose (--all-tracks with poses of some tracks only)
+        return kp, used, dup
     s = np.where(poses.found()[rows], poses.keypoints[rows, :, 2], 0.0).mean(axis=1)
     order = rows[np.lexsort((-s, poses.camera[rows], t[rows]))]
     key = t[order] * n_cameras + poses.camera[order]
@@ -152,9 +167,20 @@ def _rig_order(poses: Poses2D, rig: Rig) -> Poses2D:
     return Poses2D(poses.frame, remap[poses.camera], poses.track_id, poses.keypoints, poses.bbox, poses.skeleton, rig.names)
 
 
+def check_liftable(result: TrackResult, poses: Poses2D, all_tracks: bool) -> None:
+    """Raise a clear InputError when lifting cannot give anything: no 2D poses at all, or no target
+    frames when only the target is asked for (:class:`NoTargetError`). :func:`lift_poses` itself
+    returns an empty result then (a benchmark row, a demo table); commands call this first."""
+    if not len(poses):
+        raise InputError("no 2D poses to lift: the keypoint files hold no poses (check that the pose model ran and "
+                         "wrote its output where --keypoints points)", field="keypoints")
+    if not all_tracks and not len(result.target.frame):
+        raise NoTargetError()
+
+
 def lift_poses(result: TrackResult, rig: Rig, scene: Scene, poses: Poses2D, all_tracks: bool = False,
                method: str = "robust", plane: bool = True, options: LiftOptions | None = None,
-               min_iou: float = 0.3) -> PoseStageResult:
+               min_iou: float = 0.3, joints: bool = True) -> PoseStageResult:
     """The pose stage on a tracker result: assign, group per sequence, lift.
 
     result: the tracker's output (``tracks``, ``boxes``, ``target``, ``target_boxes``), e.g. from
@@ -163,20 +189,42 @@ def lift_poses(result: TrackResult, rig: Rig, scene: Scene, poses: Poses2D, all_
     all_tracks: lift every 3D track (rows per (frame, track)); default: the target only.
     method: ``dlt`` (paper Eq. 3 per joint) | ``robust``; plane: with ``robust``, pass the centre
         and the nearest plane's normal (False: the ablation "robust without plane anchoring").
-    min_iou: the assignment's gate.
+    min_iou: the assignment's gate; joints: also assign by the joints' epipolar agreement where
+        boxes overlap (:mod:`gymtrack.pose.assign_joints`), and leave a body two tracks' poses
+        found in one view to the track it fits (:mod:`gymtrack.pose.exclusive`).
     """
     if method not in LIFT_METHODS:
         raise InputError(f"unknown lifting method {method!r}; choose one of {', '.join(LIFT_METHODS)}", field="--lift")
     t0 = time.perf_counter()
     options = options or LiftOptions()
     poses = _rig_order(poses, rig)
+    clipped = int((poses.keypoints[..., 2] > 1).sum())
+    if clipped:  # OpenPose's heatmap peaks reach a little above 1: a weight, so clip
+        poses = replace(poses, keypoints=np.concatenate([poses.keypoints[..., :2],
+                                                         np.minimum(poses.keypoints[..., 2:], 1.0)], axis=-1))
     boxes = _rig_boxes(Detections.concat([result.boxes, result.target_boxes]), rig)
-    a = assign_poses(poses, boxes, min_iou=min_iou, frame_range=_frame_range(result))
-    mine = np.flatnonzero(a.poses.track_id >= 0)
+    a = assign_poses(poses, boxes, min_iou=min_iou, frame_range=_frame_range(result), rig=rig if joints else None)
+    known = np.unique(np.concatenate([result.tracks.track_id, result.target.track_id, boxes.track_id]))
+    unknown = (a.status == GIVEN) & ~np.isin(a.poses.track_id, known)
+    if unknown.any():
+        ids = np.unique(a.poses.track_id[unknown])
+        warnings.warn(f"{int(unknown.sum())} poses name a track_id the track output does not have "
+                      f"({', '.join(map(str, ids[:5]))}{'...' if ids.size > 5 else ''}); they are not lifted: were they "
+                      "written for another track run?", GymtrackWarning, stacklevel=2)
+    # one body, one person: a pose two tracks' crops both found stays with the track it fits
+    same = exclusive_bodies(a.poses, rig, np.where(unknown, -1, a.poses.track_id)) if joints else np.zeros(len(a.poses), bool)
+    tid = np.where(unknown | same, -1, a.poses.track_id)
+    foreign = np.zeros(len(tid), bool)
+    if joints and all_tracks:  # a crop holding another track's body: its pose goes to that track
+        t = result.tracks
+        moved = foreign_bodies(a.poses, rig, tid, t.frame, t.track_id, t.xyz)
+        foreign, tid = moved != tid, moved
+        a = replace(a, poses=replace(a.poses, track_id=np.where(unknown | same, a.poses.track_id, tid)))
+    mine = np.flatnonzero(tid >= 0)
     assigned = a.poses.subset(mine)
     seqs = track_sequences(result.tracks) if all_tracks else [target_sequence(result.target)]
     used, dup = np.zeros(len(assigned), bool), np.zeros(len(assigned), bool)
-    parts = []
+    parts, no_pose = [], 0
     for seq in seqs:
         if not len(seq.frame):
             continue
@@ -184,6 +232,7 @@ def lift_poses(result: TrackResult, rig: Rig, scene: Scene, poses: Poses2D, all_
         used |= u
         dup |= d
         if not u.any():
+            no_pose += 1
             continue
         anchor = method == "robust" and plane
         normal = nearest_plane_normal(scene, seq.centre) if anchor else None
@@ -192,9 +241,22 @@ def lift_poses(result: TrackResult, rig: Rig, scene: Scene, poses: Poses2D, all_
         has = np.all(np.isfinite(lifted.xyz), axis=-1).any(axis=1)
         parts.append(Poses3D(seq.frame[has], seq.track_id[has], lifted.xyz[has], lifted.score[has], lifted.n_views[has],
                              lifted.reproj_px[has], lifted.how[has], assigned.skeleton))
+    if all_tracks and no_pose:
+        warnings.warn(f"{no_pose} of {len(seqs)} tracks have no 2D pose assigned and get no 3D skeleton "
+                      "(the keypoints cover only some tracks)", GymtrackWarning, stacklevel=2)
     p3 = Poses3D.concat(parts).sorted() if parts else Poses3D.empty(poses.skeleton)
+    check = skeleton_consistency(p3)
+    if check["suspect"]:
+        warnings.warn(f"the 3D skeleton does not look like a body: bone lengths vary by {check['bone_cv']:.0%} over "
+                      f"frames (a body's: under {BONE_CV_MAX:.0%}), left and right limbs differ by "
+                      f"{check['asymmetry']:.0%} (a body's: under {ASYMMETRY_MAX:.0%}); the 2D poses are probably read "
+                      f"in the wrong joint order ({poses.skeleton.name}): check --skeleton", GymtrackWarning, stacklevel=2)
     counts = {"read": len(poses), **{k: v for k, v in a.counts.items() if k != "total"},
-              "used": int(used.sum()), "duplicate": int((dup & ~used).sum()), "not_lifted": int((~used & ~dup).sum())}
+              "unknown_track": int(unknown.sum()), "same_body": int(same.sum()),
+              "foreign_moved": int((foreign & (tid >= 0)).sum()), "foreign_dropped": int((foreign & (tid < 0)).sum()), "used": int(used.sum()), "duplicate": int((dup & ~used).sum()),
+              "not_lifted": int((~used & ~dup).sum()), "scores_clipped": clipped,
+              "tracks_without_pose": no_pose if all_tracks else 0,
+              "bone_length_cv": round(check["bone_cv"], 3), "left_right_asymmetry": round(check["asymmetry"], 3)}
     return PoseStageResult(p3, a, counts, time.perf_counter() - t0)
 
 

@@ -58,6 +58,7 @@ class GripPhases:
         # ease the posture in over the first 0.3 s
         wgt = smoothstep(np.minimum(np.arange(1, n + 1) / (0.3 * self.fps), 1.0))
         ang = self.angles[None] + wgt[:, None] * (ang - self.angles[None])
+        self.record("giant", self.n, self.n + n - 1, grip=[float(v) for v in grip], direction=float(np.sign(direction)))
         self._grip_phase(np.asarray(grip, float), th, yaw, ang, posture, phase)
 
     def swing(self, grip, amplitudes, yaw: float, posture: int = B.ARMS_UP, phase: int = SKILL, centre_angle: float = 0.0,
@@ -104,6 +105,7 @@ class GripPhases:
         yaw_a = np.full(n, yaw)
         tw = np.full(n, self.twist)
         c = self.body.centre_on_grip(np.broadcast_to(g, (n, 3)), a, yaw_a, th, tw)
+        self.record("still", self.n, self.n + n - 1)  # a held pose: handstand, L-sit, cross, support
         self.append(c, yaw_a, th, tw, a, self.posture if posture is None else posture, phase)
 
     def grip_transition(self, grip, seconds: float, pitch_end: float, yaw: float, angles_end=None, posture: int | None = None,

@@ -77,6 +77,9 @@ class MotionBuilder(GripPhases):
         self.angles = B.posture_angles(B.STAND)
         self.posture = B.STAND
         self.gait = 0.0
+        #: the choreography's elements as they are made: ``{"kind", "start", "end", ...}`` with 0-based
+        #: frame indices (:mod:`.elements` turns them into ``gt/elements.json``); bookkeeping only
+        self.records: list[dict] = []
 
     # ------------------------------------------------------------------ bookkeeping
     @property
@@ -99,6 +102,10 @@ class MotionBuilder(GripPhases):
         if abs(self.pitch - self.upright_pitch) < 1e-6 and self.twist != 0.0:
             self.yaw += self.twist
             self.twist = 0.0
+
+    def record(self, kind: str, start: int, end: int, **info) -> None:
+        """Note an element the choreography made over frames ``start..end`` (0-based, inclusive)."""
+        self.records.append({"kind": kind, "start": int(start), "end": int(end), **info})
 
     def frames_for(self, seconds: float) -> int:
         return max(1, int(round(seconds * self.fps)))
@@ -171,7 +178,11 @@ class MotionBuilder(GripPhases):
         tw = self.twist + w * (np.round(self.twist / (2 * np.pi)) * 2 * np.pi - self.twist)
         xy = self.centre[:2] + self._wobble(n, sway)
         c = self.body.centre_on_feet(xy, support_z, a, yw, pw, tw)
+        n0, yaw0 = self.n, self.yaw
         self.append(c, yw, pw, tw, a, posture, phase)
+        self.record("still", n0, n0 + n - 1)
+        if yaw1 != yaw0:  # a turn on the spot
+            self.record("turn", n0, n0 + n - 1, degrees=float(np.degrees(yaw1 - yaw0)))
 
     def _wobble(self, n: int, amp: float) -> np.ndarray:
         """(n, 2) a slow zero-start wobble of amplitude ``amp`` metres (balance, breathing)."""
@@ -219,6 +230,9 @@ class MotionBuilder(GripPhases):
         xy_t = start[None] + s[:, None] * u[None] + sway[:, None] * side[None]
         tw = np.full(n, self.twist)
         c = self.body.centre_on_feet(xy_t, support_z, a, yaw, pitch, tw)
+        k = int(min(np.searchsorted(t, 0.5), n - 1))  # the heading turns in the first 0.5 s
+        if np.linalg.norm(xy_t[:min(k + self.frames_for(0.3), n - 1) + 1] - start, axis=1).max() < 0.5:
+            self.record("turn", self.n, self.n + k, degrees=float(np.degrees(yaw[k] - self.yaw)))  # on the spot (a slow beam walk)
         self.append(c, yaw, pitch, tw, a, B.RUN if run else B.WALK, phase)
 
     def turn(self, yaw_delta: float, seconds: float, support_z: float, posture: int = B.TURN, phase: int = SKILL) -> None:
@@ -228,6 +242,7 @@ class MotionBuilder(GripPhases):
         a = self.keyframed_angles(n, [(0.25, B.posture_angles(posture)), (0.8, B.posture_angles(posture)), (1.0, B.posture_angles(B.STAND))])
         yaw = self.yaw + smoothstep(tau) * yaw_delta
         c = self.body.centre_on_feet(np.repeat(self.centre[None, :2], n, 0), support_z, a, yaw, np.full(n, self.pitch), np.full(n, self.twist))
+        self.record("turn", self.n, self.n + n - 1, degrees=float(np.degrees(yaw_delta)))
         self.append(c, yaw, self.pitch, self.twist, a, posture, phase)
 
     def pose_on_feet(self, seconds: float, support_z: float, keys, pitch_keys=None, posture: int = B.BALANCE, phase: int = SKILL,
@@ -247,6 +262,7 @@ class MotionBuilder(GripPhases):
         xy1 = xy0 if xy_end is None else np.asarray(xy_end, float)
         xy = xy0[None] + smoothstep(tau)[:, None] * (xy1 - xy0)[None]
         c = self.body.centre_on_feet(xy, support_z, a, np.full(n, self.yaw), p, np.full(n, self.twist))
+        self.record("still", self.n, self.n + n - 1)  # still where its keyframes hold a pose (balance, salute)
         self.append(c, self.yaw, p, self.twist, a, posture, phase)
 
     def absorb(self, support_z: float, seconds: float, angles_end, posture: int = B.CROUCH, phase: int = SKILL) -> None:
@@ -324,6 +340,7 @@ class MotionBuilder(GripPhases):
         a = self.keyframed_angles(n, angle_keys) if angle_keys else np.repeat(self.angles[None], n, 0)
         fl = np.ones(n, bool)
         fl[-1] = False
+        self.record("flight", self.n, self.n + n - 2)
         self.append(c, yaw, pitch, twist, a, posture, phase, fl)
         return v0
 
@@ -347,6 +364,7 @@ class MotionBuilder(GripPhases):
                     last[key] = last[key][: m - k]
                 self._n -= k
                 k = 0
+        self.records = [dict(r, end=min(r["end"], self._n - 1)) for r in self.records if r["start"] < self._n]
         last = self._chunks[-1]
         self.centre = last["centre"][-1].copy()
         self.yaw, self.pitch, self.twist = float(last["yaw"][-1]), float(last["pitch"][-1]), float(last["twist"][-1])

@@ -31,6 +31,8 @@ from ..scene import Scene
 from ..geometry.camera import Rig
 from . import body as B
 from .detector import DetectorParams, TrueBoxes, detect, true_boxes
+from .elements import ground_truth_elements
+from .lengths import MAX_SECONDS, MIN_SECONDS, check_seconds  # noqa: F401  (MIN/MAX: re-exported)
 from .motion import PERFORMING, PHASE_NAMES
 from .people import Crowd, Person, judges_layout
 from .skills import Event, Layout, target_routine
@@ -38,8 +40,6 @@ from .venue import FPS, make_rig
 
 #: Default routine length in seconds (a vault is short by nature).
 DEFAULT_SECONDS = {name: (20.0 if name == "vault" else 60.0) for name in APPARATUS_NAMES}
-MIN_SECONDS = 10.0
-MAX_SECONDS = 600.0
 TARGET_ID = 1
 #: Background walking lanes (people entering and leaving), per apparatus.
 WALKER_SLOTS = (3, 7)
@@ -72,6 +72,7 @@ class SimulatedRoutine:
         and ballistic-flight flag.
     drift: (T,) the target's added off-plane drift, metres.
     body_points: (P, T, 26, 3) every body point (:data:`~.body.POINT_NAMES`), NaN where not alive.
+    elements: the target's elements as the choreography made them (:mod:`.elements`, ``gt/elements.json``).
     """
 
     apparatus: str
@@ -103,6 +104,7 @@ class SimulatedRoutine:
     rig_info: dict = field(default_factory=dict)
     dropped_at_border: int = 0
     body_points: np.ndarray | None = None
+    elements: dict | None = None
 
     # ------------------------------------------------------------------ target
     target_id: int = TARGET_ID
@@ -198,7 +200,8 @@ class SimulatedRoutine:
         ``persons_3d.csv`` (every person every frame they exist; a 9th column ``phase`` is 1 on
         the target's performing frames), ``boxes_2d/<camera>.txt`` (true boxes overlapping the
         image, visible 0/1), ``keypoints_3d.csv`` (COCO-17 joints of every person, mm) and
-        ``simulation.json`` (what was simulated). ``plot``: also ``plot_top.png`` and
+        ``simulation.json`` (what was simulated), ``elements.json`` (the target's elements as the
+        choreography made them). ``plot``: also ``plot_top.png`` and
         ``plot_side.png`` (needs matplotlib).
         """
         from ..formats.calibration import write_native
@@ -233,6 +236,10 @@ class SimulatedRoutine:
             "keypoints_3d": "every person, frames where alive",
         }
         (out / "gt" / "simulation.json").write_text(json.dumps(meta, indent=1) + "\n")
+        if self.elements is not None:
+            from ..formats.elements import write_elements
+
+            write_elements(out / "gt" / "elements.json", self.elements)
         if plot:
             from .plot import plot_routine
 
@@ -246,13 +253,8 @@ class SimulatedRoutine:
         xyz = self.centre[pi, ti]
         phase = ((pi == 0) & self.performing[ti]).astype(np.int64)
         rows = np.empty((pi.size, 9), dtype=object)
-        rows[:, 0] = self.frames[ti]
-        rows[:, 1] = self.person_id[pi]
-        rows[:, 2] = self.role[pi]
-        rows[:, 3:6] = xyz
-        rows[:, 6] = self.top_z[pi, ti]
-        rows[:, 7] = self.bottom_z[pi, ti]
-        rows[:, 8] = phase
+        rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 3:6] = self.frames[ti], self.person_id[pi], self.role[pi], xyz
+        rows[:, 6], rows[:, 7], rows[:, 8] = self.top_z[pi, ti], self.bottom_z[pi, ti], phase
         with open(path, "w") as fh:
             fh.write("frame,person_id,role,x,y,z,top_z,bottom_z,phase\n")
             np.savetxt(fh, rows, fmt="%d,%d,%s,%.4f,%.4f,%.4f,%.4f,%.4f,%d")
@@ -264,10 +266,8 @@ class SimulatedRoutine:
         pi, ti = np.repeat(pi[order], 17), np.repeat(ti[order], 17)
         ji = np.tile(np.arange(17), pi.size // 17)
         rows = np.empty((ti.size, 6), dtype=object)
-        rows[:, 0] = self.frames[ti]
-        rows[:, 1] = self.person_id[pi]
-        rows[:, 2] = np.asarray(B.COCO_JOINTS, dtype=object)[ji]
-        rows[:, 3:6] = self.keypoints[pi, ti, ji]
+        rows[:, 0], rows[:, 1] = self.frames[ti], self.person_id[pi]
+        rows[:, 2], rows[:, 3:6] = np.asarray(B.COCO_JOINTS, dtype=object)[ji], self.keypoints[pi, ti, ji]
         with open(path, "w") as fh:
             fh.write("frame,person_id,joint,x,y,z\n")
             np.savetxt(fh, rows, fmt="%d,%d,%s,%.3f,%.3f,%.3f")
@@ -305,9 +305,7 @@ def check_args(apparatus: str, n_cam: int | None, seed, seconds) -> tuple[str, i
         raise InputError(f"seed must be a whole number, got {seed!r}", field="seed") from None
     if seed < 0:
         raise InputError(f"seed must be >= 0, got {seed}", field="seed")
-    seconds = DEFAULT_SECONDS[apparatus] if seconds is None else float(seconds)
-    if not (MIN_SECONDS <= seconds <= MAX_SECONDS):
-        raise InputError(f"seconds must be between {MIN_SECONDS:g} and {MAX_SECONDS:g}, got {seconds:g}", field="seconds")
+    seconds = check_seconds(apparatus, DEFAULT_SECONDS[apparatus] if seconds is None else float(seconds))
     return apparatus, n_cam, seed, seconds
 
 
@@ -322,7 +320,7 @@ def _simulate_scene(apparatus: str, seed: int, seconds: float) -> _Scene:
     # The target.
     rng_t = np.random.default_rng(s_target)
     body = B.BodyModel(rng_t.uniform(1.45, 1.75))
-    motion, events, drift = target_routine(app, seconds, fps, rng_t, body, layout)
+    motion, events, drift, records = target_routine(app, seconds, fps, rng_t, body, layout)
     target = Person(TARGET_ID, "target", body, 0, motion)
 
     # Cameras aimed at the target's performance (for the vault, the table end of the runway).
@@ -371,6 +369,7 @@ def _simulate_scene(apparatus: str, seed: int, seconds: float) -> _Scene:
         "keypoints": points[:, :, :17].astype(np.float64),
         "phase": motion.phase, "flight": motion.flight,
         "drift": drift, "body_points": points,
+        "elements": ground_truth_elements(records, motion.yaw, motion.pitch, motion.twist, points[0, :, :17], app, fps, TARGET_ID),
     }
     return _Scene(apparatus, seed, seconds, rig, rig_info, layout, people, events, arrays, tb, unusual, blind, s_det)
 
@@ -401,7 +400,7 @@ def _finish(sc: _Scene, n_cam: int, params: DetectorParams | None) -> SimulatedR
         top_z=a["top_z"], bottom_z=a["bottom_z"], posture=a["posture"], keypoints=a["keypoints"], true_boxes=sc.tb,
         detections=dets, det_person=det_person.astype(np.int64), target_views=views, phase=a["phase"], flight=a["flight"],
         drift=a["drift"], events=sc.events, layout=sc.layout, rig_info=sc.rig_info, dropped_at_border=out.dropped_at_border,
-        body_points=a["body_points"],
+        body_points=a["body_points"], elements=a["elements"],
     )
 
 
@@ -416,7 +415,8 @@ def simulate_routine(apparatus: str, n_cam: int = 4, seed: int = 0, seconds: flo
         opposite pair cam0/cam1 (other people are detected in every view).
     seed: the routine's seed; the same seed gives the same routine bit for bit, and the same
         performance for every ``n_cam``.
-    seconds: length; default :data:`DEFAULT_SECONDS` (60 s, vault 20 s); 10 to 600. Every
+    seconds: length; default :data:`DEFAULT_SECONDS` (60 s, vault 20 s); from what the apparatus's
+        routine needs (:mod:`.lengths`; a vault: 5 s, one vault) to an hour. Every
         apparatus fits walking in, mount, skills, dismount and landing into 20 s; shorter
         routines (uneven bars under ~20 s, rings and horizontal bar under ~15 s) end before the
         dismount.

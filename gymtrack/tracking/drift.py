@@ -83,11 +83,14 @@ class DriftMonitor:
 
     rig: the cameras; fps: frames per second; step: frames between windows; opposite: (C, C) bool,
     the view pairs judged opposite (:func:`~gymtrack.geometry.views.opposite_pairs`); recalibrate:
-    re-estimate a knocked camera's rotation and correct its later boxes.
+    re-estimate a knocked camera's rotation and correct its later boxes; active: watch at all (off,
+    the default of the tracker: it costs about a fifth of the tracking speed and its thresholds still
+    raise a rare false alarm on clean routines).
     """
 
-    def __init__(self, rig: Rig, fps: float, step: int, opposite: np.ndarray, recalibrate: bool = True):
-        self.rig, self.fps, self.recalibrate = rig, fps, recalibrate
+    def __init__(self, rig: Rig, fps: float, step: int, opposite: np.ndarray, recalibrate: bool = True,
+                 active: bool = True):
+        self.rig, self.fps, self.recalibrate, self.active = rig, fps, recalibrate, active
         C = self.C = len(rig)
         self.Kinv = np.stack([np.linalg.inv(c.K) for c in rig])
         self.Rt = np.stack([c.R.T for c in rig])  # (C, 3, 3) camera -> world directions
@@ -120,6 +123,8 @@ class DriftMonitor:
     def observe(self, start: int, box: np.ndarray, observed: np.ndarray, members: np.ndarray) -> None:
         """One window: segments' undistorted boxes (K, W, 4), observed (K, W), clusters (M, C).
         Every :data:`EVERY_WINDOWS`-th window is used (the residuals change slowly; the cost stays small)."""
+        if not self.active:
+            return
         if self.first is None:
             self.first = start
         self._windows += 1
@@ -288,6 +293,8 @@ class DriftMonitor:
     # ------------------------------------------------------------ at the end
     def warn_sync(self) -> None:
         """A warning for a camera whose residuals say it is out of sync."""
+        if not self.active:
+            return
         for s in self.sync_suspects():
             warnings.warn(f"camera {s['camera']} is probably out of sync by {s['offset']:+d} frames (its residuals "
                           f"follow its points' motion, {s['estimate']:+.2f} frames): run gymtrack sync", GymtrackWarning,

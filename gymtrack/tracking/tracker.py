@@ -79,6 +79,7 @@ from .plane_refine import PlaneRefiner
 from .reconstruct import cluster_members, fallback_segments, opposite_clusters, outliers, outliers_at_mean, triangulate_clusters
 from .single_view import IoUTracker
 from .single_view_motion import MotionIoUTracker, needs_motion
+from .handover import TargetHandover
 from .target import TargetStage
 from .types import TrackerOutput, Tracks3D, WindowTracklets, WindowTracklets3D
 from .records import BoxTable, WindowRecords
@@ -99,7 +100,8 @@ class Tracker:
         :data:`~gymtrack.modes.RECIPES` (``cascade`` | ``triangulation`` | ``plane`` | ``cascade+``);
         ``mode=`` is the same argument under its older name.
     association: ``iou`` (the method) | ``oracle`` (ground-truth ids in ``track_id``).
-    recalibrate: a knocked camera's rotation re-estimated and applied (:mod:`.drift`; the warning stays).
+    watch_cameras: watch each camera's residuals for a knock or a desync (:mod:`.drift`; off by default);
+    recalibrate: then a knocked camera's rotation re-estimated and applied (the warning stays).
 
     Use: ``out = tracker.update(frame, detections_of_that_frame)`` for increasing frame
     numbers (frames without boxes may be skipped), then ``tracker.finish()``; every call
@@ -107,7 +109,7 @@ class Tracker:
     """
 
     def __init__(self, rig: Rig, scene: Scene, method: Method | str = DEFAULT_MODE, association: str = "iou",
-                 *, mode: Method | str | None = None, recalibrate: bool = True):
+                 *, mode: Method | str | None = None, watch_cameras: bool = False, recalibrate: bool = True):
         try:
             m = self.method = method_of(method if mode is None else mode)
         except ValueError as e:
@@ -148,8 +150,8 @@ class Tracker:
                        if m.motion_link and association == "iou" else None)
         # frames a segment's end box is held (windows): max_age, or hold_seconds (capped at max_age)
         self.hold = p.max_age if m.hold_seconds is None else min(p.max_age, int(m.hold_seconds * scene.fps))
-        self.target = TargetStage(rig, scene)
-        self.venue = DriftMonitor(rig, scene.fps, p.step, self.opposite, recalibrate)  # knocked or unsynchronised cameras
+        self.target = TargetStage(rig, scene, TargetHandover(p.identify_frames, self.counts) if m.handover else None)
+        self.venue = DriftMonitor(rig, scene.fps, p.step, self.opposite, recalibrate, active=watch_cameras)  # knocked or unsynchronised cameras
         # the apparatus plane refined online (.plane_refine); planes: auto turns it on
         every = p.refine_plane or (REFINE_EVERY if scene.auto_planes else 0)
         self.refiner = PlaneRefiner(self.P, scene, self.planes[0], every) if m.refine_plane and every else None

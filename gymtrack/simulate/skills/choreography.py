@@ -104,6 +104,8 @@ class Choreography:
 
     def land(self, support_z: float, seconds: float = 0.7, phase: int = LANDING) -> None:
         """Absorb a landing (the legs bend on into a crouch), stand up, fold any twist into the heading."""
+        if support_z == 0.0:  # a landing on the floor (the contact frame is the flight's last); no steps
+            self.b.record("landing", self.b.n - 1, self.b.n - 1, steps=0)
         self.b.fold_twist()
         self.b.absorb(support_z, self.rng.uniform(0.15, 0.2), B.posture_angles(B.CROUCH), phase=phase)
         self.b.pose_on_feet(seconds, support_z, [(1.0, B.posture_angles(B.STAND))], posture=B.STAND, phase=phase)

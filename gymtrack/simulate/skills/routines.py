@@ -71,13 +71,14 @@ def add_drift(motion: Motion, app: Apparatus, rng: np.random.Generator, fps: flo
 
 
 def target_routine(app: Apparatus, seconds: float, fps: float, rng: np.random.Generator, body: B.BodyModel,
-                   layout: Layout) -> tuple[Motion, list[Event], np.ndarray]:
+                   layout: Layout) -> tuple[Motion, list[Event], np.ndarray, list[dict]]:
     """The target gymnast's whole routine on ``app``, exactly ``round(seconds * fps)`` frames.
 
-    Returns the motion (drift included), the events coaches react to and the (n,) drift."""
+    Returns the motion (drift included), the events coaches react to, the (n,) drift and the
+    choreography's element records (:attr:`MotionBuilder.records`, for ``gt/elements.json``)."""
     b = MotionBuilder(body, fps, rng)
     c = Choreography(app, b, rng, layout, int(round(seconds * fps)))
     ROUTINES[app.name](c)
     motion = b.build()
     drift = add_drift(motion, app, rng, fps)
-    return motion, c.events, drift
+    return motion, c.events, drift, b.records
