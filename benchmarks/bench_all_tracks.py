@@ -13,9 +13,14 @@ it lies on (the one whose true joints are nearest, within 0.5 m on average), ove
 arm, forearm, thigh, shin and the torso; beside it, how many true person-frames lie in the
 tracking space.
 
+A crowd (``--crowd N``, :func:`gymtrack.simulate.crowd.simulate_crowd`): the same routine plus N
+people (gymnasts and coaches) standing within arm's reach of each other beside the apparatus
+and gesturing, so that their boxes overlap in every view and the simulated top-down model's
+crops often hold a neighbour (its crop confusion, :func:`gymtrack.simulate.pose_view.choose_person`).
+
 Usage::
 
-    python benchmarks/bench_all_tracks.py [--apparatus balance_beam] [--seconds 30] [--repeat 3]
+    python benchmarks/bench_all_tracks.py [--apparatus balance_beam] [--seconds 30] [--repeat 3] [--crowd 6]
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ import numpy as np
 
 from gymtrack.pose.stage import lift_poses, pose_model_boxes
 from gymtrack.simulate import simulate_routine
+from gymtrack.simulate.crowd import simulate_crowd
 from gymtrack.simulate.pose_model import simulate_pose_model
 from gymtrack.tracking import track_detections
 
@@ -84,8 +90,13 @@ def main() -> None:
     ap.add_argument("--method", default="robust")
     ap.add_argument("--no-bbox", action="store_true", help="drop the poses' crop boxes, as a bottom-up model gives them")
     ap.add_argument("--box-only", action="store_true", help="assign by box overlap only (no joint-level pass)")
+    ap.add_argument("--crowd", type=int, default=0, metavar="N",
+                    help="add a group of N people within arm's reach beside the apparatus (simulate.crowd)")
     a = ap.parse_args()
-    sim = simulate_routine(a.apparatus, n_cam=4, seed=a.seed, seconds=a.seconds)
+    if a.crowd:
+        sim = simulate_crowd(a.apparatus, n_cam=4, seed=a.seed, seconds=a.seconds, size=a.crowd)
+    else:
+        sim = simulate_routine(a.apparatus, n_cam=4, seed=a.seed, seconds=a.seconds)
     res = track_detections(sim.rig, sim.scene, sim.detections, mode="cascade")
     poses = simulate_pose_model(sim.rig, sim.keypoints, sim.person_id, sim.frames, pose_model_boxes(res, True), seed=a.seed)
     poses.track_id[:] = -1  # as a pose model run on its own gives them: assigned by their boxes

@@ -20,11 +20,19 @@ The tracker's names are imported on first use, so ``import gymtrack`` stays ligh
 
 from .version import SOURCE_VERSION as __version__  # noqa: E402  (the one literal: gymtrack/version.py)
 
-from .detections import Detections  # noqa: E402
+import sys as _sys  # noqa: E402
+
+if _sys.orig_argv[1:3] == ["-m", "gymtrack.cli"] or _sys.argv[0].endswith(("/gymtrack", "\\gymtrack.exe")):
+    from . import interrupts as _interrupts  # the command line: Ctrl-C handled from the first line on
+
+    _interrupts.install()
+
 from .errors import GymtrackError, InputError  # noqa: E402
 
-#: public names loaded on first access: name -> module
+#: public names loaded on first access: name -> module (also Detections: numpy is not imported
+#: before the command line has put its Ctrl-C handler in place)
 _LAZY = {
+    "Detections": "gymtrack.detections",
     "Tracker": "gymtrack.tracking.tracker",
     "TrackerOutput": "gymtrack.tracking.types",
     "track_detections": "gymtrack.tracking.offline",

@@ -60,6 +60,8 @@ class Method:
         (``params.refine_plane`` or ``planes: auto``).
     hold_seconds: how long a segment's end box is held beyond its last observation, capped at
         ``params.max_age`` frames; None: ``max_age`` frames (the paper's).
+    handover: a track born where the target's track ended continues the target for Eq. 13
+        (:mod:`gymtrack.tracking.handover`); else the target is re-identified by Eq. 13 alone.
     name: what results and reports call it.
     """
 
@@ -76,6 +78,7 @@ class Method:
     solo_inside: bool = False
     refine_plane: bool = False
     hold_seconds: float | None = None
+    handover: bool = False
     name: str = "custom"
 
     def __post_init__(self) -> None:
@@ -104,7 +107,7 @@ RECIPES: dict[str, Method] = {
     "plane": Method(plane="all", name="plane"),
     "cascade+": Method(image_motion=True, outliers_at_mean=True, floor=True, ghost_test=True, fusion=True,
                        motion_link=True, keep_older=True, exclusion=True, best_estimates=True, solo_inside=True,
-                       refine_plane=True, hold_seconds=0.2, name="cascade+"),
+                       refine_plane=True, hold_seconds=0.2, handover=True, name="cascade+"),
 }
 MODES: tuple[str, ...] = tuple(RECIPES)
 #: the recipe a Tracker, the offline runners, batch and the command line use unless told

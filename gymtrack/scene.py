@@ -130,6 +130,10 @@ class Scene(_Strict):
         default_factory=dict, description="camera -> frames: file frame k of that camera's video is frame "
         "first_frame + k - offset (a camera that started recording n frames early has offset n)"
     )
+    frame_offsets: dict[str, int] = Field(
+        default_factory=dict, description="camera -> frames: that camera's detections and keypoints of frame f "
+        "are frame f - offset of the routine (a camera whose frame numbers run n ahead has offset n; gymtrack sync)"
+    )
 
     @model_validator(mode="before")
     @classmethod
@@ -201,6 +205,8 @@ class Scene(_Strict):
         d = self.model_dump(mode="json")
         if d["first_frame"] == 1 and not d["video_offsets"]:  # files without videos stay as they were
             del d["first_frame"], d["video_offsets"]
+        if not d["frame_offsets"]:  # (files without offsets stay as they were)
+            del d["frame_offsets"]
         if d.pop("auto_planes"):
             d["planes"] = "auto"
         return d

@@ -158,3 +158,51 @@ def test_video_size_must_match_the_calibration(world, tmp_path):
         shutil.copy(world["routine"] / "videos" / f"{n}.mp4", routine / "videos" / f"{n}.mp4")
     res = CliRunner().invoke(app, ["detect", str(routine), "--model", str(world["models"] / "det.onnx")])
     assert res.exit_code != 0 and "64x64 but camera 'cam0' is calibrated at 1920x1080" in str(res.exception)
+
+
+def test_detect_keeps_boxes_on_their_frames_through_dropped_repeated_and_corrupt_frames(world, tmp_path):
+    """cam2's capture drops routine frames 50-51, repeats one frame (the image of frame 151 again at
+    frame 100's time) and has a damaged stretch (a key frame and the next frame overwritten): frame
+    numbers come from the timestamps, so every box the oracle finds lands on the frame its image
+    shows; the dropped, repeated and corrupt frames are counted and named."""
+    import av
+
+    routine = tmp_path / "routine"
+    shutil.copytree(world["routine"], routine, ignore=shutil.ignore_patterns("detections"))
+    names, c = world["names"], 2
+    with VideoReader(routine / "videos" / f"{names[c]}.mp4") as v:
+        images = [im for _, im in v]
+    (routine / "videos" / f"{names[c]}.mp4").unlink()
+    keep = [k for k in range(len(images)) if k not in (49, 50)]  # file frames of routine frames 50, 51 dropped
+    frames, stamps = [images[k] for k in keep], [float(k) for k in keep]
+    at = stamps.index(99.0) + 1
+    frames.insert(at, images[150])  # a repeat, 0.3 frame after frame 100's time
+    stamps.insert(at, 99.3)
+    path = routine / "videos" / f"{names[c]}.mkv"
+    write_video(path, frames, 30, options={"g": "10"}, timestamps=stamps)
+    with av.open(str(path)) as f:
+        tb = f.streams.video[0].time_base
+        packets = [(p.pts, p.pos, p.size, p.is_keyframe) for p in f.demux(f.streams.video[0]) if p.size]
+    slot = [int(round(p[0] * tb * 30)) for p in packets]
+    key = [i for i, p in enumerate(packets) if p[3] and slot[i] >= 200]
+    data = bytearray(path.read_bytes())
+    for _, pos, size, _ in packets[key[0]:key[0] + 2]:  # damage a key frame and the frame after it
+        data[pos + size // 4: pos + 3 * size // 4] = bytes(3 * size // 4 - size // 4)
+    path.write_bytes(bytes(data))
+    corrupt = sorted({s + 1 for s in slot[key[0]:key[1]]})  # up to the next key frame: routine frames
+
+    res = CliRunner().invoke(app, ["detect", str(routine), "--models", str(world["models"] / "models.yaml")])
+    assert res.exit_code == 0, res.output + repr(res.exception)
+    text = " ".join(res.output.split())
+    assert (f"video of {names[c]}: 2 dropped (frames 50-51), 1 repeated skipped (at frame 100), "
+            f"{len(corrupt)} corrupt skipped (frames {corrupt[0]}-{corrupt[-1]})") in text, text
+    assert corrupt[0] > 200 and len(corrupt) >= 10
+    lost = {50, 51, *corrupt}
+    for cam in (0, c):
+        got, _ = read_detections(routine / "detections" / f"{names[cam]}.txt", cam, names)
+        want, _ = read_detections(world["truth"] / f"{names[cam]}.txt", cam, names)
+        want = want.select(~np.isin(want.frame, list(lost))) if cam == c else want
+        g = got.select(np.lexsort((got.box[:, 0], got.frame)))
+        w = want.select(np.lexsort((want.box[:, 0], want.frame)))
+        assert np.array_equal(g.frame, w.frame), names[cam]  # every box on the frame its image shows
+        assert np.allclose(g.score, w.score, atol=1e-4)

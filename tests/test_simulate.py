@@ -348,7 +348,48 @@ def test_bad_arguments_are_named():
         simulate_routine("trampoline")
     with pytest.raises(InputError, match="n_cam must be 2, 3 or 4"):
         simulate_routine("vault", n_cam=1)
-    with pytest.raises(InputError, match="seconds must be between"):
+    with pytest.raises(InputError, match=r"a vault routine needs at least 5 s \(a run-up of at least 5 m, the vault"):
         simulate_routine("vault", seconds=2)
     with pytest.raises(InputError, match="seed must be"):
         simulate_routine("vault", seed=-3)
+
+
+# ----------------------------------------------------------------------------- lengths
+def test_a_five_second_vault_is_one_whole_vault_and_is_tracked():
+    """5 s of vault: standing at the start of the run-up, the run-up, board and table, the
+    post-flight and the landing, all inside the routine; the tracker finds the target on it."""
+    from gymtrack.simulate.phases import DISMOUNT, LANDING, RUN_UP, SKILL
+    from gymtrack.tracking.offline import track_detections
+
+    sim = simulate_routine("vault", n_cam=4, seed=3, seconds=5)
+    assert sim.n_frames == 150
+    ph = sim.phase
+    firsts = [int(np.flatnonzero(ph == p)[0]) for p in (RUN_UP, SKILL, DISMOUNT, LANDING)]
+    assert firsts == sorted(firsts) and firsts[0] < 15  # in this order, the run-up from the start
+    assert np.flatnonzero(ph == LANDING)[-1] < sim.n_frames - 1  # the landing is over before the end
+    assert sim.target_centre[sim.flight, 2].max() > 2.0  # the post-flight peaks above 2 m
+    res = track_detections(sim.rig, sim.scene, sim.detections)
+    perf = sim.frames[sim.performing]
+    assert np.isin(perf, res.target.frame).mean() > 0.8
+
+
+@pytest.mark.parametrize("apparatus", APPARATUS_NAMES)
+def test_shortest_routine_of_each_apparatus_holds_a_performance(apparatus):
+    from gymtrack.simulate.lengths import PERFORMANCE_SECONDS, ROUTINE_NEEDS
+
+    need = ROUTINE_NEEDS[apparatus][0]
+    sim = simulate_routine(apparatus, n_cam=3, seed=1, seconds=need)  # ROUTINE_NEEDS: 12 seeds' entries + 1 s
+    assert sim.n_frames == round(need * sim.fps)
+    assert sim.performing.sum() / sim.fps >= (PERFORMANCE_SECONDS if apparatus != "vault" else 1.0)
+    with pytest.raises(InputError, match=f"a {apparatus} routine needs at least {need:g} s"):
+        simulate_routine(apparatus, seconds=need - 0.5)
+
+
+def test_longest_routine_is_an_hour_as_far_as_memory_allows(monkeypatch):
+    from gymtrack.simulate import lengths
+
+    with pytest.raises(InputError, match="at most 3600 .one hour., got 3601"):
+        simulate_routine("vault", seconds=3601)
+    monkeypatch.setattr(lengths, "_available_memory", lambda: 2e9)
+    with pytest.raises(InputError, match=r"simulating 3600 s needs about \d+\.\d GB of memory .*; 2\.0 GB are available"):
+        simulate_routine("balance_beam", seconds=3600)

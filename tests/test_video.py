@@ -125,3 +125,73 @@ def test_open_videos_scales_a_smaller_video_of_the_same_aspect(tmp_path):
         assert vs.pixel_scale.tolist() == [1.0]
     with pytest.raises(InputError, match="64x48 but camera 'a' is calibrated at 256x144 .another aspect"):
         open_videos(tmp_path, ["a"], sizes=[(256, 144)])
+
+
+def test_frames_numbered_by_timestamp_dropped_and_repeated(tmp_path):
+    """Timestamps 0-4, 7-9, 9.3 (a repeat), 10-19: slots 5-6 dropped (a gap), the repeat skipped."""
+    p = tmp_path / "cam0.mkv"
+    ts = [0, 1, 2, 3, 4, 7, 8, 9, 9.3, *range(10, 20)]
+    write_video(p, numbered(len(ts)), fps=25, timestamps=ts)
+    r = VideoReader(p, first_frame=1)
+    assert r.frame_numbers.tolist() == [1, 2, 3, 4, 5, 8, 9, 10, *range(11, 21)]
+    code = {int(round(t)) + 1: i for i, t in enumerate(ts) if t != 9.3}  # frame -> index of the image written
+    assert [(f, frame_code(im)) for f, im in r] == sorted(code.items())
+    for fr in (20, 8, 11, 5, 10, 15):  # seeks by timestamp
+        assert frame_code(r.read(fr)) == code[fr]
+    assert r.faults.dropped == [6, 7] and r.faults.repeated == [10] and not r.faults.corrupt
+    assert r.faults.summary() == "2 dropped (frames 6-7), 1 repeated skipped (at frame 10)"
+    with pytest.raises(InputError, match="frame 6 was dropped"):
+        r.read(6)
+    assert r.try_read(7) is None
+
+
+def _damage(path, first: int, n: int = 2):
+    """Zero the middle half of ``n`` packets from the ``first``-th key frame on; returns the key frames' indices."""
+    import av
+
+    with av.open(str(path)) as f:
+        packets = [(p.pos, p.size, p.is_keyframe) for p in f.demux(f.streams.video[0]) if p.size]
+    keys = [i for i, p in enumerate(packets) if p[2]]
+    data = bytearray(path.read_bytes())
+    for pos, size, _ in packets[keys[first]:keys[first] + n]:
+        data[pos + size // 4: pos + 3 * size // 4] = bytes(3 * size // 4 - size // 4)
+    path.write_bytes(bytes(data))
+    return keys
+
+
+def test_corrupt_stretch_skipped_to_next_decodable_frame(tmp_path):
+    p = tmp_path / "cam0.mkv"
+    write_video(p, numbered(40), fps=25, options={"g": "8"})
+    keys = _damage(p, 1)  # key frames every 8: file frames 8-15 do not decode
+    assert keys[:3] == [0, 8, 16]
+    with VideoReader(p) as r:
+        got = [(f, frame_code(im)) for f, im in r]
+        assert got == [(k + 1, k) for k in range(40) if not 8 <= k < 16]  # the rest stays on its frame
+        assert sorted(r.faults.corrupt) == list(range(9, 17))
+        assert r.faults.summary() == "8 corrupt skipped (frames 9-16)"
+    with VideoReader(p) as r:  # random access: a seek into the stretch, then around it
+        assert r.try_read(12) is None and frame_code(r.read(30)) == 29 and frame_code(r.read(17)) == 16
+        assert frame_code(r.read(8)) == 7
+        with pytest.raises(InputError, match="frame 10 cannot be decoded"):
+            r.read(10)
+
+
+def test_damaged_container_frames_after_it_keep_their_numbers(tmp_path):
+    """A Matroska file with a block header overwritten: the demuxer resumes at the next cluster; the
+    frames lost in between are a reported gap, and the frames after it keep their numbers."""
+    import av
+
+    p = tmp_path / "cam0.mkv"
+    write_video(p, numbered(40), fps=25)
+    with av.open(str(p)) as f:
+        packets = [(q.pos, q.size) for q in f.demux(f.streams.video[0]) if q.size]
+    data = bytearray(p.read_bytes())
+    pos = packets[20][0]
+    data[pos:pos + 12] = bytes(12)
+    p.write_bytes(bytes(data))
+    with VideoReader(p) as r:
+        got = dict((f, frame_code(im)) for f, im in r)
+        lost = sorted(set(range(1, 41)) - set(got))
+        assert lost and lost[0] == 21 and all(got[f] == f - 1 for f in got)  # counting would shift 37-40 onto 21-24
+        assert max(got) == 40 and r.faults.dropped == lost
+        assert f"{len(lost)} dropped (frames 21-{lost[-1]})" in r.faults.summary()

@@ -15,6 +15,7 @@ from rich.console import Console
 from rich.table import Table
 
 from gymtrack.cli import app
+from gymtrack.cli.locking import force_routine_option, hold_for_command, wait_option
 from gymtrack.cli.report import interrupts
 
 console = Console()
@@ -48,11 +49,14 @@ def missing_lines(analysis) -> list[str]:
 
 @app.command()
 def analyse(
+    ctx: typer.Context,
     routine: Path = typer.Argument(..., help="routine folder (its scene.yaml: apparatus, plane, fps)"),
     out: Path = typer.Argument(..., help="the output folder of `gymtrack track` + `gymtrack pose`; analysis/ is written into it"),
     track: int = typer.Option(None, "--track", help="analyse this track of poses_3d.csv instead of the target"),
     samples: int = typer.Option(32, "--samples", min=0, help="Monte Carlo samples for the uncertainties (0: none)"),
     no_report: bool = typer.Option(False, "--no-report", help="skip the routine sheet (report.html)"),
+    force: bool = force_routine_option(),
+    wait: float = wait_option(),
 ) -> None:
     """Measure flights (saltos, twists, shape), landings, holds, circles and turns; write OUT/analysis/."""
     from gymtrack.analysis import analyse as run_analysis
@@ -61,6 +65,7 @@ def analyse(
     from gymtrack.formats.poses3d import read_poses_3d
     from gymtrack.formats.scene import load_scene
 
+    hold_for_command(ctx, out, "analyse", wait, routine, force)  # from the first read of OUT to the last write
     scene = load_scene(Path(routine) / "scene.yaml")
     with console.status("analysing the skeleton"):
         if track is None:

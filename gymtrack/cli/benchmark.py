@@ -47,6 +47,24 @@ def _methods(text: str) -> list[str]:
     return out
 
 
+def _seeds(text: Optional[str], suite: Optional[Path]) -> list[int]:
+    """``--seeds`` as integers (empty without it); an InputError naming the option when it is not
+    a list of integers or comes with ``--suite``."""
+    from gymtrack.errors import InputError
+
+    if text is None:
+        return []
+    try:
+        out = [int(x) for x in text.replace(" ", ",").split(",") if x.strip()]
+    except ValueError:
+        raise InputError(f"expected comma-separated integers, got {text!r}", field="--seeds") from None
+    if not out or len(set(out)) != len(out):
+        raise InputError(f"expected distinct seeds, got {text!r}", field="--seeds")
+    if suite is not None:
+        raise InputError("--seeds simulates its own suites (OUT/suite-s<seed>); give --suite or --seeds, not both", field="--seeds")
+    return out
+
+
 def print_summary(rows: list[dict]) -> list:
     """Table 5 and the targets, with rich; returns the claims (:func:`gymtrack.eval.aggregate.claims`)."""
     from gymtrack.eval.aggregate import claims, table5
@@ -132,8 +150,15 @@ def benchmark(
     no_wildtrack: bool = typer.Option(False, "--no-wildtrack", help="skip the real-data section"),
     no_mot: bool = typer.Option(False, "--no-mot", help="skip the all-people MOT metrics (faster)"),
     no_dropout: bool = typer.Option(False, "--no-dropout", help="skip the camera drop-out section (gymtrack.eval.dropout)"),
+    faults: bool = typer.Option(False, "--faults", help="also the venue-faults section (gymtrack.eval.fault_bench): "
+                                "desync, knock, dropped frames, silent camera; clean / with the fault / corrected"),
     no_pose: bool = typer.Option(False, "--no-pose", help="skip the target's 3D pose (Fig. 7 table, lifting ablation)"),
     mvor: Optional[Path] = typer.Option(None, "--mvor", help="MVOR folder for the real-keypoints pose section (default: $GYMTRACK_MVOR or shared/data/mvor above the project; skipped with a note if absent)"),
+    seeds: Optional[str] = typer.Option(None, "--seeds", help="comma-separated base seeds, e.g. 0,1,2: one default suite "
+                                        "per seed (OUT/suite-s<seed>, simulated unless there), pooled; the headline figures "
+                                        "get 90 % bootstrap intervals over routines"),
+    n_cams: Optional[str] = typer.Option(None, "--n-cams", help="comma-separated: only the suite's routines with these "
+                                         "n_cam (e.g. 2)"),
     check: bool = typer.Option(False, "--check", help="exit with status 1 when a target (claim) fails or a run fails"),
     ablation: bool = typer.Option(False, "--ablation", help="instead of the methods: cascade+ with each ingredient beyond "
                                   "the paper switched off alone, and the cascade with each added alone (target FR / AED, "
@@ -146,7 +171,16 @@ def benchmark(
 
     method_list = _methods(methods)
     n_jobs = jobs if jobs > 0 else (os.cpu_count() or 1)
-    if suite is None:
+    seed_list = _seeds(seeds, suite)
+    if seed_list:
+        from gymtrack.eval.benchmark import seeded_suites
+
+        console.print(f"--seeds: one suite per seed {', '.join(map(str, seed_list))} ({per_apparatus} routines per apparatus, "
+                      f"each with n_cam = 2, 3, 4) in [bold]{out}/suite-s<seed>[/]")
+        specs = seeded_suites(out, seed_list, per_apparatus, seconds or None, jobs=n_jobs,
+                              progress=lambda k, n, a: console.print(f"  simulated {a} ({k}/{n})"))
+        suite = out
+    elif suite is None:
         suite = out / "suite"
         if not (suite / "suite.json").is_file():
             console.print(f"no --suite: simulating the default suite ({per_apparatus} routines per apparatus, each with "
@@ -155,7 +189,18 @@ def benchmark(
                                    progress=lambda k, n, a: console.print(f"  simulated {a} ({k}/{n})"))
         else:
             console.print(f"no --suite: using the suite already simulated in [bold]{suite}[/]")
-    specs = read_suite(suite)
+    if not seed_list:
+        specs = read_suite(suite)
+    if n_cams:
+        from gymtrack.errors import InputError
+
+        try:
+            keep = {int(x) for x in n_cams.split(",") if x.strip()}
+        except ValueError:
+            raise InputError(f"expected comma-separated integers, got {n_cams!r}", field="--n-cams") from None
+        specs = [s for s in specs if s.n_cam in keep]
+        if not specs:
+            raise InputError(f"no routine of the suite has n_cam in {sorted(keep)}", field="--n-cams")
     runner = None
     if not scheduler and n_jobs > 1 and importlib.util.find_spec("distributed") is None:
         console.print("[yellow]note:[/] Dask is not installed (the 'batch' extra: pip install 'gymtrack[batch]'): "
@@ -184,6 +229,15 @@ def benchmark(
         console.print("camera drop-out section ...")
         rows = run_dropout(specs)
         drop = (dropout_markdown(rows), rows)
+    if faults:
+        from gymtrack.eval.fault_bench import faults_markdown, run_faults
+
+        console.print("venue faults section ...")
+        rows = run_faults(specs)
+        md = faults_markdown(rows)
+        drop = (md, rows) if drop is None else (drop[0] + "\n\n" + md, drop[1])
+        (out / "faults.json").parent.mkdir(parents=True, exist_ok=True)
+        (out / "faults.json").write_text(__import__("json").dumps(rows, indent=1, default=str))
     wt = None
     if not no_wildtrack:
         from gymtrack.eval.config import DEFAULT_CONFIG
@@ -202,9 +256,15 @@ def benchmark(
         mv = run_mvor_pose(mvor, log=lambda s: console.print("  " + s))
         if not mv.get("available"):
             console.print(f"[yellow]{mv['note']}[/]")
-    files = write_benchmark(run, out, meta={"suite": str(suite), "methods": ", ".join(method_list)}, wildtrack=wt, mvor=mv,
-                             dropout=drop)
+    from gymtrack.eval.explain import explain_markdown
+    from gymtrack.eval.pooled import pooled_markdown
+
+    pooled_md = pooled_markdown(run.rows)
+    explain_md = explain_markdown(run.rows)
+    meta = {"suite": str(suite) + (f" (seeds {', '.join(map(str, seed_list))})" if seed_list else ""), "methods": ", ".join(method_list)}
+    files = write_benchmark(run, out, meta=meta, wildtrack=wt, mvor=mv, dropout=drop, sections=[pooled_md, explain_md])
     found = print_summary(run.rows)
+    console.print(pooled_md, highlight=False)
     if "cascade+" in method_list:
         from gymtrack.eval.plus_claims import plus_claims
         from gymtrack.eval.render import fmt

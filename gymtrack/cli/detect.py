@@ -113,9 +113,14 @@ def run_detector(routine: Path, det, rig, scene, label: str = "detecting"):
     """Detector over the routine's videos with a progress bar -> DetectRun."""
     from gymtrack.models import detect_videos
 
+    from gymtrack.cli.report import REPORTER
+
     with open_routine_videos(routine, rig, scene) as videos, stage_progress(label) as bar:
         task = bar.add_task(label, total=None)
-        return detect_videos(videos, det, progress=lambda d, n: bar.update(task, completed=d, total=n))
+        run = detect_videos(videos, det, progress=lambda d, n: bar.update(task, completed=d, total=n))
+    for cam, faults in run.video_faults.items():  # boxes stay on their frames; the frames a camera lacks are said
+        REPORTER.warn(f"video of {cam}: {faults.summary()}")
+    return run
 
 
 def detect_report(run, det) -> str:
@@ -125,7 +130,8 @@ def detect_report(run, det) -> str:
     if run.skipped_frames:
         lines.append(f"{run.skipped_frames} frames numbered below 1 (video_offsets) skipped")
     if run.missing_images:
-        lines.append(f"{run.missing_images} (frame, camera) pairs without an image (shorter video or offset)")
+        lines.append(f"{run.missing_images} (frame, camera) pairs without an image (shorter video, offset, "
+                     "dropped or corrupt frames)")
     return "\n".join(lines)
 
 

@@ -19,6 +19,7 @@ from rich.table import Table
 
 from gymtrack.cli import app
 from gymtrack.cli.options import calibration_format_option, calibration_option, keypoints_option, units_option
+from gymtrack.cli.locking import force_routine_option, hold_for_command, wait_option
 
 console = Console()
 
@@ -91,8 +92,21 @@ def _judging_rows(t: Table, j: dict) -> None:
                   f"median; mean {_f(st['mean'], '{:.3f}' if unit == 'm' else '{:.1f}')} over {st['n']} frames")
 
 
+def explain_table_of(why: dict) -> Table:
+    """The failure breakdown of one output (:func:`gymtrack.eval.explain.explain_failures`) as a table."""
+    from gymtrack.eval.explain import CAUSES
+
+    t = Table(title=f"target FR failures by cause ({why['failures']} of {why['evaluated']} boxes)", title_justify="left")
+    for col in ("cause", "boxes", "share of evaluated"):
+        t.add_column(col, justify="left" if col == "cause" else "right")
+    for c in CAUSES:
+        t.add_row(c.replace("_", " "), str(why[c]), _f(why[c] / why["evaluated"] if why["evaluated"] else float("nan"), "{:.1%}"))
+    return t
+
+
 @app.command("eval")
 def eval_cmd(
+    ctx: typer.Context,
     routine: Path = typer.Argument(..., help="routine folder with gt/ (persons_3d.csv, boxes_2d/)"),
     out: Path = typer.Argument(..., help="output folder written by `gymtrack track --out`"),
     as_json: bool = typer.Option(False, "--json", help="print the scores as JSON instead of a table"),
@@ -101,17 +115,25 @@ def eval_cmd(
     units: Optional[str] = units_option(),
     calibration: Optional[Path] = calibration_option(),
     keypoints: Optional[Path] = keypoints_option(),
+    force: bool = force_routine_option(),
+    wait: float = wait_option(),
+    explain: bool = typer.Option(False, "--explain", help="also give every failed target box (FR) its cause: no detection "
+                                 "in any view, box wrong though the centre is right, never clustered, taken by a phantom "
+                                 "cluster, a wrong identification, a linking break"),
 ) -> None:
     """Score an output folder against the routine's ground truth (target and all people)."""
     from gymtrack.eval.score import score_output
 
     opts = {} if units is None else {"units": units}
     opts.update({k: v for k, v in (("calibration", calibration), ("keypoints", keypoints)) if v is not None})
-    s = score_output(routine, out, mot=mot, calibration_format=calibration_format, **opts)
+    hold_for_command(ctx, out, "eval", wait, routine, force, shared=True)  # no writer replaces OUT while it is scored
+    s = score_output(routine, out, mot=mot, calibration_format=calibration_format, explain=explain, **opts)
     if as_json:
         s = {k: v for k, v in s.items() if k != "row"}
         typer.echo(json.dumps(_no_nan(s), indent=2))
         return
     console.print(score_table(s))
+    if explain:
+        console.print(explain_table_of(s["explain"]))
     for note in s["notes"]:
         console.print(f"note: {note}", highlight=False)

@@ -25,6 +25,7 @@ from rich.table import Table
 
 from gymtrack.cli import app
 from gymtrack.cli.options import calibration_format_option, calibration_option, read_routine, skeleton_option, units_option
+from gymtrack.cli.locking import force_routine_option, hold_for_command, wait_option
 from gymtrack.cli.report import interrupts
 
 console = Console()
@@ -68,7 +69,10 @@ def pose_summary_table(summary: dict, title: str = "Pose stage") -> Table:
         ("  unassigned (no track box overlaps)", "unassigned"), ("  rejected: no joint found", "rejected_no_joints"),
         ("  rejected: frame outside the track output", "rejected_frame"),
         ("  track_id naming no track of the output", "unknown_track"), ("assigned poses lifted", "used"),
-        ("  duplicates (same track, frame, view)", "duplicate"), ("  not lifted (track not lifted)", "not_lifted"),
+        ("  duplicates (same track, frame, view)", "duplicate"),
+        ("  the same body as another track's pose there (left to that track)", "same_body"),
+        ("  another track's body in the crop: moved to it", "foreign_moved"),
+        ("  another track's body in the crop, which has its own: dropped", "foreign_dropped"), ("  not lifted (track not lifted)", "not_lifted"),
         ("joint scores above 1, clipped", "scores_clipped"), ("tracks without a 2D pose (no skeleton)", "tracks_without_pose"),
         ("frames with a 3D pose", "frames_with_pose"), ("tracks with a 3D pose", "tracks_with_pose"),
         ("joints triangulated", "joints_triangulated"), ("joints on the plane only", "joints_plane"),
@@ -83,6 +87,7 @@ def pose_summary_table(summary: dict, title: str = "Pose stage") -> Table:
 
 @app.command()
 def pose(
+    ctx: typer.Context,
     routine: Path = typer.Argument(..., help="routine folder (cameras.yaml, scene.yaml, detections/, keypoints/ or gt/)"),
     out: Path = typer.Argument(..., help="the track output folder of `gymtrack track`; poses are written into it"),
     keypoints: Optional[Path] = typer.Option(None, "--keypoints", "-k", help="2D poses folder, any layout the keypoints "
@@ -98,6 +103,8 @@ def pose(
     model: Optional[Path] = typer.Option(None, "--model", help="pose ONNX file: run it on the b_buf crops of ROUTINE/videos"),
     models_yaml: Optional[Path] = typer.Option(None, "--models", help="models.yaml (pose.path and adapter options)"),
     device: Optional[str] = typer.Option(None, "--device", help="cpu | cuda | tensorrt | auto (with --model)"),
+    force: bool = force_routine_option(),
+    wait: float = wait_option(),
 ) -> None:
     """Lift 2D keypoints in the tracker's boxes to the target's 3D pose (every track's with --all-tracks)."""
     from gymtrack.errors import InputError
@@ -112,6 +119,7 @@ def pose(
     use_model = model is not None or models_yaml is not None
     if sum([simulated_model, keypoints is not None, use_model]) > 1:
         raise InputError("give one of --keypoints, --simulated-model, --model", field="--keypoints")
+    hold_for_command(ctx, out, "pose", wait, routine, force)  # from the first read of OUT to the last write
     from gymtrack.formats.keypoints import KeypointsReport
 
     r, _ = read_routine(routine, calibration_format, units, calibration=calibration,

@@ -88,7 +88,10 @@ def interrupts(console: Console | None = None) -> Iterator[None]:
     try:
         yield
     except KeyboardInterrupt as exc:
+        from .. import interrupts as _interrupts
+
         notes = "; ".join(getattr(exc, "__notes__", []))
-        (console or REPORTER.console).print(f"[red]interrupted[/] (Ctrl-C){': ' + escape(notes) if notes else ''}",
-                                            highlight=False, soft_wrap=True)
+        with _interrupts.quiet():  # a second Ctrl-C while printing is only recorded: still one line
+            (console or REPORTER.console).print(f"[red]interrupted[/] (Ctrl-C){': ' + escape(notes) if notes else ''}",
+                                                highlight=False, soft_wrap=True)
         raise typer.Exit(130) from None

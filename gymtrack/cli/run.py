@@ -20,6 +20,7 @@ import typer
 from gymtrack.cli import app
 from gymtrack.modes import DEFAULT_MODE
 from gymtrack.cli.options import calibration_format_option, overwrite_option, units_option
+from gymtrack.cli.locking import hold, wait_option
 from gymtrack.cli.report import interrupts
 from gymtrack.cli.detect import (build_models, console, detect_report, load_rig_scene, open_routine_videos,
                                  run_detector, stage_progress, times_table, write_detections_atomic)
@@ -39,10 +40,11 @@ def run(
     overwrite: bool = overwrite_option(),
     calibration_format: Optional[str] = calibration_format_option(),
     units: Optional[str] = units_option(),
+    wait: float = wait_option(),
 ) -> None:
     """Videos -> detections -> tracks -> 2D poses in b_buf -> 3D poses -> judging measurements, in one command."""
     from gymtrack.errors import InputError
-    from gymtrack.formats.atomic import atomic_output
+    from gymtrack.formats.atomic import atomic_output, check_output_folder
     from gymtrack.pose.stage import LIFT_METHODS
     from gymtrack.modes import MODES
 
@@ -56,7 +58,8 @@ def run(
     inputs = {"routine": Path(routine).absolute(), "detector": det.session.path.absolute(),
               "pose_model": pm.session.path.absolute(), "mode": mode, "lift": lift, "all_tracks": all_tracks,
               "calibration_format": calibration_format, "units": units}
-    with interrupts(), atomic_output(out, "run", inputs, overwrite=overwrite, protect=[routine]) as staging:
+    with interrupts(), hold(check_output_folder(out, overwrite, [routine]), "run", wait), \
+            atomic_output(out, "run", inputs, overwrite=overwrite, protect=[routine]) as staging:
         times = _stages(routine, staging, rig, scene, det, pm, mode, all_tracks, lift)
     console.print(times_table(times))
     console.print(f"outputs written to [bold]{out}[/]")

@@ -30,6 +30,7 @@ from gymtrack.cli import app
 from gymtrack.cli.options import (calibration_format_option, calibration_option, keypoints_option, skeleton_option,
                                   overwrite_option, read_routine, silent_seconds_option,
                                   strict_option, units_option)
+from gymtrack.cli.locking import hold, wait_option
 from gymtrack.cli.report import REPORTER, interrupts
 from gymtrack.modes import DEFAULT_MODE, INGREDIENTS
 
@@ -94,11 +95,17 @@ def track(
                                                 f"(repeat the option): {', '.join(INGREDIENTS)}"),
     adding: Optional[list[str]] = typer.Option(None, "--adding", help="switch this ingredient on as cascade+ has it "
                                                "(repeat the option; names as --without)"),
+    watch_cameras: bool = typer.Option(False, "--watch-cameras", help="watch each camera's residuals: warn when one "
+                                       "is knocked (and when, by how many degrees) or out of sync (costs about a fifth "
+                                       "of the tracking speed)"),
+    recalibrate: bool = typer.Option(True, "--recalibrate/--no-recalibrate", help="with --watch-cameras: re-estimate a "
+                                     "knocked camera's rotation from the other views and apply it from then on"),
+    wait: float = wait_option(),
 ) -> None:
     """Track a routine: 3D tracks, per-view boxes and the target gymnast (paper Section III)."""
     from gymtrack.cli.system import compile_notice
     from gymtrack.errors import InputError
-    from gymtrack.formats.atomic import atomic_output
+    from gymtrack.formats.atomic import atomic_output, check_output_folder
     from gymtrack.formats.outputs import write_outputs
     from gymtrack.tracking.offline import track_detections
 
@@ -112,7 +119,10 @@ def track(
               "calibration": calibration and Path(calibration).absolute(), "keypoints": keypoints and Path(keypoints).absolute()}
     if without or adding:
         inputs |= {"without": list(without or ()), "adding": list(adding or ())}
-    with interrupts(), atomic_output(out, "track", inputs, overwrite=overwrite, protect=[routine]) as staging:
+    if watch_cameras:
+        inputs |= {"watch_cameras": True, "recalibrate": recalibrate}
+    with interrupts(), hold(check_output_folder(out, overwrite, [routine]), "track", wait), \
+            atomic_output(out, "track", inputs, overwrite=overwrite, protect=[routine]) as staging:
         r, checks = read_routine(routine, calibration_format, units, silent_seconds, calibration, keypoints, skeleton)
         notice = compile_notice()
         if notice:
@@ -124,7 +134,8 @@ def track(
             def progress(done: int, total: int) -> None:
                 bar.update(task, completed=done, total=total)
 
-            result = track_detections(r.rig, r.scene, r.detections, mode=method, progress=progress)
+            result = track_detections(r.rig, r.scene, r.detections, mode=method, progress=progress, watch_cameras=watch_cameras,
+                                       recalibrate=recalibrate)
         if r.pose_boxes is not None:  # the summary says where the boxes came from
             b = r.pose_boxes
             result.summary["boxes_from_poses"] = {"poses": b.poses, "boxes": b.boxes, "too_few_joints": b.too_few_joints,
@@ -156,7 +167,7 @@ DEMO_MODES = ("cascade", "cascade+", "triangulation")
 @app.command()
 def demo(
     out: Optional[Path] = typer.Option(None, "--out", "-o", help="also write the routine and both results here"),
-    seconds: float = typer.Option(30.0, "--seconds", "-s", help="length of the simulated routine (10-600 s)"),
+    seconds: float = typer.Option(30.0, "--seconds", "-s", help="length of the simulated routine (7 s to an hour)"),
     seed: int = typer.Option(0, "--seed", help="simulation seed"),
 ) -> None:
     """Simulate uneven bars seen by two opposite cameras; compare the cascade with triangulation (and cascade+)."""

@@ -47,6 +47,7 @@ from .metrics import (
     target_id_switches,
 )
 from .aggregate import METHODS
+from .explain import CAUSES, explain_failures
 
 #: Apparatus whose n_cam = 2 routine is drawn like the paper's Fig. 6.
 FIG6_APPARATUS: tuple[str, ...] = ("balance_beam", "uneven_bars", "parallel_bars")
@@ -160,7 +161,9 @@ def run_routine(spec: RoutineSpec, methods: Sequence[str], keep_trajectories: bo
         pgt = PoseGroundTruth.load(spec.path, gt, r.scene.performance_space) if pose else None
     except Exception as exc:
         pgt, base["pose_error"] = None, f"{type(exc).__name__}: {exc}"
-    jt = _judging_truth(spec, r.scene, pgt, base)
+    from .judging import judging_truth
+
+    jt = None if pgt is None else judging_truth(spec.path, r.scene, pgt, base)
     if keep_trajectories:
         t = gt.target()
         traj["GT"] = (t.frame, t.xyz)
@@ -178,6 +181,8 @@ def run_routine(spec: RoutineSpec, methods: Sequence[str], keep_trajectories: bo
             row = {**base, "method": method_name(method), "frames": int(res.summary.get("frames", 0)), "seconds": sec,
                    **evaluate_routine(res, gt, r.scene, r.rig, mot=mot),
                    "target_switches": int(res.summary.get("target_switches", 0)), "error": "", **extra}
+            why = explain_failures(res, r.detections, gt, r.scene, r.rig)  # the FR's failures by cause (.explain)
+            row |= {f"why_{c}": why[c] for c in CAUSES}
             if pgt is not None:
                 row |= pose_columns(method, res, r.rig, r.scene, pgt, seed=spec.seed, judging=jt)
             if keep_trajectories:
@@ -192,20 +197,6 @@ def run_routine(spec: RoutineSpec, methods: Sequence[str], keep_trajectories: bo
     if jt is not None and rows:  # the definitions check, once per routine
         rows[0]["judge_truth_parts"] = json.dumps(jt.truth_parts())
     return {"rows": rows, "trajectories": traj if keep_trajectories else None, "spec": spec.__dict__}
-
-
-def _judging_truth(spec: RoutineSpec, scene: Scene, pgt, base: dict):
-    """The routine's :class:`~gymtrack.eval.judging.JudgingTruth` (None without gt/elements.json or
-    poses; a failure is noted in ``base["judge_error"]`` and costs nothing else)."""
-    if pgt is None:
-        return None
-    try:
-        from .judging import JudgingTruth
-
-        return JudgingTruth.load(spec.path, scene, pgt)
-    except Exception as exc:
-        base["judge_error"] = f"{type(exc).__name__}: {exc}"
-        return None
 
 
 # ----------------------------------------------------------------------------- suites
@@ -310,6 +301,23 @@ def simulate_default_suite(out: str | Path, per_apparatus: int = DEFAULT_PER_APP
     return out
 
 
+def seeded_suites(out: str | Path, seeds: Sequence[int], per_apparatus: int = DEFAULT_PER_APPARATUS,
+                   seconds: float | None = DEFAULT_SECONDS, jobs: int | None = None,
+                   progress: Callable[[int, int, str], None] | None = None) -> list[RoutineSpec]:
+    """The routines of one default suite per base seed, ``<out>/suite-s<seed>`` (simulated unless
+    its ``suite.json`` exists), named ``s<seed>/<routine>`` so that names stay unique when the
+    suites are pooled (:mod:`.pooled`)."""
+    from dataclasses import replace
+
+    specs: list[RoutineSpec] = []
+    for seed in seeds:
+        folder = Path(out) / f"suite-s{int(seed)}"
+        if not (folder / "suite.json").is_file():
+            simulate_default_suite(folder, per_apparatus, seconds, seed=int(seed), jobs=jobs, progress=progress)
+        specs += [replace(s, name=f"s{int(seed)}/{s.name}") for s in read_suite(folder)]
+    return specs
+
+
 @dataclass
 class BenchmarkRun:
     """What :func:`run_suite` produced."""
@@ -395,10 +403,11 @@ def run_suite(
 
 
 def write_benchmark(run: BenchmarkRun, out: str | Path, meta: dict | None = None, wildtrack: dict | None = None,
-                    mvor: dict | None = None, dropout: tuple[str, list[dict]] | None = None) -> dict[str, Path]:
+                    mvor: dict | None = None, dropout: tuple[str, list[dict]] | None = None,
+                    sections: Sequence[str] = ()) -> dict[str, Path]:
     """Write the report, tables, JSON and the Fig. 6 plots of a run under ``out`` (with the pose
     section; ``dropout``: the camera drop-out section's markdown and rows, :mod:`.dropout`, also
-    written to ``dropout.csv``)."""
+    written to ``dropout.csv``; ``sections``: more markdown sections, appended)."""
     from .judging import judging_markdown
     from .pose_bench import pose_markdown, pose_tables
     from .render import plot_target_trajectories, write_csv, write_report
@@ -424,7 +433,7 @@ def write_benchmark(run: BenchmarkRun, out: str | Path, meta: dict | None = None
     meta = {"gymtrack version": version(), "routines": len(run.specs), "parallel jobs": run.jobs, "CPUs": os.cpu_count(), "wall seconds": round(run.seconds, 1),
             **(meta or {})}
     extra = "\n\n".join(x for x in (pose_markdown(run.rows, mvor), judging_markdown(run.rows), wildtrack_markdown(wildtrack) if wildtrack else None,
-                                     dropout[0] if dropout is not None else None) if x)
+                                     dropout[0] if dropout is not None else None, *sections) if x)
     files = write_report(out, run.rows, meta, plots, extra, wildtrack)
     files["pose"] = write_csv(out / "pose_fig7.csv", pose_tables(run.rows)["fig7"])
     if dropout is not None and dropout[1]:

@@ -70,6 +70,16 @@ def _columns(a) -> dict[str, np.ndarray]:
                                              if k in a.columns}}
 
 
+def judging_truth(routine: str | Path, scene, pgt, base: dict) -> "JudgingTruth | None":
+    """The routine's :class:`JudgingTruth` (None without gt/elements.json; a failure is noted in
+    ``base["judge_error"]`` and costs the benchmark row nothing else)."""
+    try:
+        return JudgingTruth.load(routine, scene, pgt)
+    except Exception as exc:
+        base["judge_error"] = f"{type(exc).__name__}: {exc}"
+        return None
+
+
 @dataclass(frozen=True, eq=False)
 class JudgingTruth:
     """One routine's truth for the judging scores.

@@ -264,7 +264,8 @@ def failure_rate(
     out_box: np.ndarray,
     image_size: np.ndarray | None = None,
     min_ratio: float = 0.5,
-) -> FailureRate:
+    per_pair: bool = False,
+) -> FailureRate | tuple[FailureRate, np.ndarray]:
     """Failure rate of the output's expanded boxes ``b_buf`` (paper Fig. 5).
 
     gt_frame, gt_camera: (G,) the (frame, view) pairs to evaluate (visible ground-truth target
@@ -275,6 +276,7 @@ def failure_rate(
     clipped to the image before the "inside" test (a true box that runs off the image only needs
     its visible part covered).
     min_ratio: the true box's ``max(w, h)`` must be at least this share of ``b_buf``'s side.
+    per_pair: also return the (G,) bool mask of the failed pairs (:mod:`.explain` sorts them by cause).
     """
     gt_frame = np.asarray(gt_frame, dtype=np.int64)
     gt_camera = np.asarray(gt_camera, dtype=np.int64)
@@ -289,7 +291,7 @@ def failure_rate(
         raise ValueError("the ground truth has more than one target box for some (frame, view)")
     g = gkey.size
     if g == 0:
-        return FailureRate(float("nan"), 0, 0, 0, 0, 0)
+        return (FailureRate(float("nan"), 0, 0, 0, 0, 0), np.zeros(0, bool)) if per_pair else FailureRate(float("nan"), 0, 0, 0, 0, 0)
     ia, ib = pairs_by_key(gkey, okey)
     has = np.zeros(g, bool)
     has[ia] = True
@@ -309,7 +311,7 @@ def failure_rate(
     too_small[ia] = inside & small
     missing = ~has
     fails = missing | outside | too_small
-    return FailureRate(
+    fr = FailureRate(
         rate=float(fails.mean()),
         failures=int(fails.sum()),
         evaluated=int(g),
@@ -317,6 +319,7 @@ def failure_rate(
         outside=int(outside.sum()),
         too_small=int(too_small.sum()),
     )
+    return (fr, fails) if per_pair else fr
 
 
 # ----------------------------------------------------------------------------- coverage

@@ -137,13 +137,14 @@ def _json_ready(v):
 
 
 def score_output(routine: str | Path, out: str | Path, mot: bool = True, calibration_format: str | None = None,
-                 **calibration_options) -> dict:
+                 explain: bool = False, **calibration_options) -> dict:
     """Score the output folder ``out`` against ``<routine>/gt/``.
 
     Returns a JSON-ready dict: ``routine``, ``out``, ``cameras``, ``target`` (:func:`target_summary`),
     ``people`` (:func:`people_summary`, None without ``mot``), ``poses`` (None when not scored),
     ``notes`` (what was left out and why) and ``row`` (the benchmark's additive parts, the same
-    keys and numbers as :func:`gymtrack.eval.benchmark.evaluate_routine`).
+    keys and numbers as :func:`gymtrack.eval.benchmark.evaluate_routine`); with ``explain``, also
+    ``explain``: the target's failed (frame, view) pairs by cause (:func:`gymtrack.eval.explain.explain_failures`).
     Raises :class:`InputError` naming the file when a needed file is missing or malformed.
     """
     from ..formats.routine import load_routine
@@ -163,8 +164,13 @@ def score_output(routine: str | Path, out: str | Path, mot: bool = True, calibra
     row = evaluate_routine(result, gt, r.scene, r.rig, mot=mot)
     if not mot:
         notes.append("all-people metrics not computed (--no-mot)")
+    why = None
+    if explain:
+        from .explain import explain_failures
+
+        why = explain_failures(result, r.detections, gt, r.scene, r.rig)
     return {
-        "routine": str(routine), "out": str(out), "cameras": list(r.rig.names),
+        "routine": str(routine), "out": str(out), "cameras": list(r.rig.names), **({"explain": why} if explain else {}),
         "target": target_summary(row), "people": people_summary(row),
         "poses": _pose_scores(routine, out, result, gt, r.scene, notes),
         "judging": judging_scores(routine, out, r.scene, gt.target_id, notes),

@@ -38,7 +38,9 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Iterator, Mapping, Sequence
 
+from .. import interrupts
 from ..errors import InputError
+from .folder_lock import disk_full_error, folder_lock, is_disk_full
 
 #: The marker file that identifies a complete gymtrack output folder.
 MARKER = ".gymtrack-output.json"
@@ -222,6 +224,13 @@ def check_output_folder(out: str | Path, overwrite: bool = False, protect: Seque
     return out
 
 
+def _untouched(exc, out: Path, existed: bool):
+    """``exc`` (a one-line error) with what happened to ``out`` added to its message."""
+    what = "the previous outputs are untouched" if existed else "nothing was written"
+    exc.args = (f"{exc.args[0]}; {what}",)
+    return exc
+
+
 def _untouched_note(exc: BaseException, out: Path, existed: bool) -> None:
     what = f"the previous contents of {out} are untouched" if existed else f"nothing was written to {out}"
     if hasattr(exc, "add_note"):
@@ -242,11 +251,20 @@ def atomic_output(
     ``protect``: input paths ``out`` must not be or contain.
     """
     out = check_output_folder(out, overwrite, protect)
+    with folder_lock(out, command):
+        with _atomic_output(out, command, inputs) as staging:
+            yield staging
+
+
+@contextmanager
+def _atomic_output(out: Path, command: str, inputs: Mapping[str, Any] | None) -> Iterator[Path]:
     prefix = f".{out.name}{_TMP_TAG}"
     _remove_stale(out.parent, prefix)
     try:
         staging = Path(tempfile.mkdtemp(prefix=f"{prefix}{os.getpid()}-", dir=out.parent))
     except OSError as exc:
+        if is_disk_full(exc):
+            raise disk_full_error(out, None) from None
         raise InputError(f"cannot write beside --out: {exc.strerror or exc}", source=out.parent) from None
     existed, swapped, old = out.exists(), False, None
     _folder_mode(staging, out if existed else None)
@@ -257,14 +275,19 @@ def atomic_output(
             "inputs": _jsonable(inputs), "files": checksums(staging), "updates": [],
         }
         _write_json_atomic(staging / MARKER, marker)
+        interrupts.check()  # a Ctrl-C swallowed on its way (numba, a callback) still keeps the old outputs
         with _no_sigint():
             old = _swap_in(staging, out)
             swapped = True
+            interrupts.record_outcome(f"the new outputs were complete and are in {out}")
         if old is not None:
             shutil.rmtree(old, ignore_errors=True)
     except BaseException as exc:
         if not swapped:
+            full = disk_full_error(out, staging) if is_disk_full(exc) else None
             shutil.rmtree(staging, ignore_errors=True)
+            if full is not None:
+                raise _untouched(full, out, existed) from None
             _untouched_note(exc, out, existed)
         else:  # interrupted right after the swap: the new outputs are in place
             if old is not None:
@@ -290,16 +313,26 @@ def atomic_update(out: str | Path, command: str, inputs: Mapping[str, Any] | Non
         raise InputError(f"not a complete gymtrack output folder (no {MARKER}); run `gymtrack track` into it first", source=out)
     if not os.access(out, os.W_OK | os.X_OK):
         raise InputError("the output folder is not writable (permission denied)", source=out)
+    with folder_lock(out, command):
+        with _atomic_update(out, command, inputs, marker) as staging:
+            yield staging
+
+
+@contextmanager
+def _atomic_update(out: Path, command: str, inputs: Mapping[str, Any] | None, marker: dict) -> Iterator[Path]:
     _remove_stale(out, _TMP_TAG)
     try:
         staging = Path(tempfile.mkdtemp(prefix=f"{_TMP_TAG}{os.getpid()}-", dir=out))
     except OSError as exc:
+        if is_disk_full(exc):
+            raise _untouched(disk_full_error(out, None, f"the {command} outputs"), out, True) from None
         raise InputError(f"cannot write into the output folder: {exc.strerror or exc}", source=out) from None
     _folder_mode(staging, None)
     try:
         yield staging
         entries = sorted(p.name for p in staging.iterdir())
         new_sums = checksums(staging)
+        interrupts.check()
         with _no_sigint():
             for name in entries:
                 src, dest = staging / name, out / name
@@ -319,7 +352,13 @@ def atomic_update(out: str | Path, command: str, inputs: Mapping[str, Any] | Non
                  "files": sorted(new_sums)}
             )
             _write_json_atomic(out / MARKER, marker)
+            interrupts.record_outcome(f"the {command} outputs were complete and are in {out}")
     except BaseException as exc:
+        if is_disk_full(exc):
+            full = disk_full_error(out, staging, f"the {command} outputs")
+            shutil.rmtree(staging, ignore_errors=True)
+            full.args = (f"{full.args[0]}; its marker still lists what it holds",)
+            raise full from None
         if hasattr(exc, "add_note"):
             exc.add_note(f"the {command} outputs were not (all) added to {out}; its marker still lists what it holds")
         raise
@@ -332,3 +371,20 @@ def _version() -> str:
     from ..version import version
 
     return version()
+
+
+# ------------------------------------------------------------------ which routine
+def check_routine(out: str | Path, routine: str | Path, force: bool = False) -> None:
+    """Refuse (InputError naming both paths) to use output folder ``out`` with ``routine`` when its
+    marker records another routine; ``force`` skips the check. A marker without a routine (a
+    demo) passes; one that records only a folder name (a batch run) is compared by name."""
+    marker = read_marker(out)
+    recorded = (marker or {}).get("inputs", {}).get("routine")
+    if force or not recorded:
+        return
+    given = Path(routine).resolve()
+    rec = Path(str(recorded))
+    same = rec.resolve() == given if rec.is_absolute() else rec.name == given.name
+    if not same:
+        raise InputError(f"was made from the routine {rec}, not {given}: give the routine it was made from, "
+                         "or --force to use it anyway", source=Path(out).absolute())

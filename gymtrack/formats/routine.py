@@ -58,6 +58,7 @@ class Routine:
     has_gt: the folder has a ``gt/`` sub-folder.
     gt: key of :data:`GT_FILES` -> path, for the ground-truth files present.
     ignored: files in ``detections/`` that are not ``.txt`` (listed, not read).
+    shifted_out: boxes that scene.yaml's ``frame_offsets`` moved before frame 0 (left out, warned).
     keypoints_path: the 2D poses' folder (given, ``keypoints/`` or Pose2Sim's ``pose/``), None if none.
     poses: the 2D poses, when they were read to make boxes (no ``detections/``); else None.
     keypoints_report: what reading them found (camera mapping, skeleton), when read.
@@ -74,6 +75,7 @@ class Routine:
     has_gt: bool = False
     gt: dict[str, Path] = field(default_factory=dict)
     ignored: tuple[Path, ...] = ()
+    shifted_out: int = 0
     keypoints_path: Path | None = None
     poses: Poses2D | None = None
     keypoints_report: KeypointsReport | None = None
@@ -164,10 +166,11 @@ def load_routine(path: str | Path, calibration_format: str | None = None, calibr
                 source=det_dir,
             )
         report = KeypointsReport()
-        poses = read_keypoints(kp_path, rig.names, skeleton=skeleton, report=report)
+        poses, shifted_out = apply_frame_offsets(read_keypoints(kp_path, rig.names, skeleton=skeleton, report=report),
+                                                 scene.frame_offsets, rig.names, scene_path)
         made = boxes_from_poses(poses)
         return Routine(detections=made.detections, reports=made.reports(report.sources), poses=poses,
-                       keypoints_report=report, pose_boxes=made, **common)
+                       keypoints_report=report, pose_boxes=made, shifted_out=shifted_out, **common)
     files = sorted(p for p in det_dir.iterdir() if p.is_file())
     txt = {p.stem: p for p in files if p.suffix == ".txt"}
     ignored = tuple(p for p in files if p.suffix != ".txt")
@@ -191,5 +194,38 @@ def load_routine(path: str | Path, calibration_format: str | None = None, calibr
         d, r = read_detections(txt[name], i, rig.names)
         parts.append(d)
         reports.append(r)
-    detections = Detections.concat(parts).sorted()
-    return Routine(detections=detections, reports=tuple(reports), ignored=ignored, **common)
+    detections, shifted_out = apply_frame_offsets(Detections.concat(parts), scene.frame_offsets, rig.names, scene_path)
+    return Routine(detections=detections, reports=tuple(reports), ignored=ignored, shifted_out=shifted_out, **common)
+
+
+def apply_frame_offsets(rows, offsets: dict[str, int], names: tuple[str, ...], source: Path | None = None):
+    """``frame_offsets`` of scene.yaml applied to (N,) rows with ``frame`` and ``camera`` columns
+    (:class:`Detections` or :class:`~gymtrack.poses.Poses2D`): a camera's frame ``f`` becomes
+    ``f - offset``. Returns the shifted rows sorted by (frame, camera) and how many fell before
+    frame 0 (left out, with a warning). An offset naming a camera the rig lacks is a RoutineError."""
+    import dataclasses
+    import warnings
+
+    import numpy as np
+
+    from ..errors import GymtrackWarning
+
+    for cam in offsets:
+        if cam not in names:
+            raise RoutineError(f"frame_offsets names camera {cam!r}, which the calibration lacks "
+                               f"(cameras: {', '.join(names)})", source=source, field=f"frame_offsets.{cam}")
+    by_cam = np.array([offsets.get(n, 0) for n in names], dtype=np.int64)
+    if not by_cam.any():
+        return (rows.sorted() if isinstance(rows, Detections) else rows), 0
+    frame = rows.frame - by_cam[rows.camera]
+    keep = np.flatnonzero(frame >= 0)
+    out = int(len(frame) - len(keep))
+    if out:
+        warnings.warn(f"frame_offsets moved {out} rows before frame 0; they are left out", GymtrackWarning, stacklevel=2)
+    order = keep[np.lexsort((rows.camera[keep], frame[keep]))]
+    if isinstance(rows, Detections):
+        shifted = Detections(frame, rows.camera, rows.box, rows.score, rows.track_id, rows.camera_names)
+        return shifted.select(order), out
+    cols = {n: getattr(rows, n)[order] for n in ("camera", "track_id", "keypoints", "bbox")}
+    return dataclasses.replace(rows, frame=frame[order], **cols), out
+

@@ -23,6 +23,7 @@ from typing import Iterable, Iterator, Mapping, Sequence
 import numpy as np
 
 from ..errors import GymtrackWarning, InputError
+from .video_index import TimestampIndex, VideoFaults, index_timestamps
 
 __all__ = ["VIDEO_EXTENSIONS", "VideoReader", "VideoSet", "find_videos", "open_videos", "write_video", "import_av"]
 
@@ -48,15 +49,21 @@ class VideoReader:
     Parameters
     ----------
     path: the video file.
-    first_frame: routine frame number of the file's first frame (``scene.yaml`` ``first_frame``).
-    offset: the camera's ``video_offsets`` entry: file frame ``k`` is frame ``first_frame + k - offset``.
+    first_frame: routine frame number of the file's first frame slot (``scene.yaml`` ``first_frame``).
+    offset: the camera's ``video_offsets`` entry: slot ``k`` is frame ``first_frame + k - offset``.
     threads: decoder threads (0: FFmpeg chooses).
+
+    Slots come from the presentation timestamps where the container has them
+    (:mod:`gymtrack.formats.video_index`): a dropped frame is a gap in :attr:`frame_numbers`, a
+    repeated one is skipped; a stretch that cannot be decoded is skipped to the next decodable
+    frame. All of it is counted in :attr:`faults`.
 
     Attributes
     ----------
-    frame_numbers: (n,) int64, the routine frame number of every frame of the file.
+    frame_numbers: (n,) int64 increasing, the routine frame number of every frame of the file.
     fps: frames per second (the stream's average rate).
     size: (width, height) in pixels.
+    faults: :class:`~gymtrack.formats.video_index.VideoFaults` (dropped, repeated, corrupt frames).
     """
 
     def __init__(self, path: str | Path, first_frame: int = 1, offset: int = 0, threads: int = 0) -> None:
@@ -74,6 +81,8 @@ class VideoReader:
         self._stream = s = self._container.streams.video[0]
         s.thread_type = "AUTO"  # frame and slice threads
         s.thread_count = int(threads)
+        # a damaged frame is an error (then skipped and reported), not a silently concealed image
+        s.codec_context.options = {"err_detect": "crccheck+explode"}
         rate = s.average_rate or s.guessed_rate or s.base_rate
         if not rate:
             raise InputError("the video stream has no frame rate", source=self.path)
@@ -82,18 +91,39 @@ class VideoReader:
         self._start = int(s.start_time or 0)
         self.fps = float(self._rate)
         self.size = (int(s.codec_context.width), int(s.codec_context.height))
-        n = int(s.frames or 0) or self._count_frames()
         self.first_frame = int(first_frame)
         self.offset = int(offset)
-        self.frame_numbers = np.arange(n, dtype=np.int64) + (self.first_frame - self.offset)
+        self._base = self.first_frame - self.offset  # routine frame number of slot 0
+        self.faults = VideoFaults()
+        self._index = self._read_index_of_packets(av)
+        self.frame_numbers = self._index.slots + self._base
+        self.faults.by_timestamp = self._index.by_timestamp
+        self.faults.dropped = (self._index.dropped_slots() + self._base).tolist()
+        self.faults.repeated = (self._index.repeated_slots + self._base).tolist()
         self._decoder: Iterator | None = None
-        self._next_index = 0  # file index the open decoder yields next
+        self._next_index = 0  # slot the open decoder yields next
 
-    def _count_frames(self) -> int:
-        """Frames of a file whose header does not say (Matroska...): count packets, no decoding."""
-        n = sum(1 for p in self._container.demux(self._stream) if p.size)
+    def _read_index_of_packets(self, av) -> TimestampIndex:
+        """Every packet's timestamp (demuxing only, no decoding); a file that cannot be read to its
+        end is indexed up to there (:attr:`faults` ``unreadable_after``)."""
+        pts: list[int | None] = []
+        try:
+            for p in self._container.demux(self._stream):
+                if p.size:
+                    pts.append(p.pts)
+        except av.error.FFmpegError:
+            self._unreadable = True
+        else:
+            self._unreadable = False
         self._container.seek(0)
-        return n
+        index = index_timestamps(pts, self._start, self._tb, self._rate)
+        # a demuxer that loses its way in a damaged file may just stop: compare with the stated length
+        stated = (self._stream.duration * self._tb if self._stream.duration else
+                  Fraction(self._container.duration or 0, 1_000_000))
+        short = len(index.slots) and float(stated * self._rate) - float(index.slots[-1] + 1) > 1.5
+        if (self._unreadable or short) and len(index.slots):
+            self.faults.unreadable_after = int(index.slots[-1] + self._base)
+        return index
 
     def __len__(self) -> int:
         return len(self.frame_numbers)
@@ -102,61 +132,113 @@ class VideoReader:
         fr = f"frames {self.frame_numbers[0]}..{self.frame_numbers[-1]}" if len(self) else "no frames"
         return f"VideoReader({self.path.name}, {self.size[0]}x{self.size[1]}, {self.fps:g} fps, {fr})"
 
-    def index_of(self, frame: int) -> int:
-        """File index (0-based) of routine frame ``frame``; InputError when the file lacks it."""
-        k = int(frame) - (self.first_frame - self.offset)
-        if not 0 <= k < len(self):
-            raise InputError(
-                f"frame {frame} is not in the video (it holds frames {self.frame_numbers[0] if len(self) else '-'}"
-                f"..{self.frame_numbers[-1] if len(self) else '-'} with first_frame {self.first_frame}, offset {self.offset})",
-                source=self.path,
-            )
-        return k
+    def has(self, frame: int) -> bool:
+        """True when the file holds routine frame ``frame`` (not dropped, not out of range)."""
+        i = int(np.searchsorted(self.frame_numbers, int(frame)))
+        return i < len(self) and self.frame_numbers[i] == int(frame)
 
-    def _index(self, av_frame) -> int:
-        if av_frame.pts is None:
+    def index_of(self, frame: int) -> int:
+        """Slot of routine frame ``frame``; InputError when the file lacks it."""
+        if not self.has(frame):
+            first, last = (self.frame_numbers[0], self.frame_numbers[-1]) if len(self) else ("-", "-")
+            what = ("was dropped (no frame of the file has its timestamp)" if len(self) and first < frame < last
+                    else "is not in the video")
+            raise InputError(f"frame {frame} {what} (it holds frames {first}..{last} with first_frame "
+                             f"{self.first_frame}, offset {self.offset})", source=self.path)
+        return int(frame) - self._base
+
+    def _slot(self, av_frame) -> int | None:
+        """Slot of a decoded frame; None for a repeated one (a timestamp the index skipped)."""
+        if not self._index.by_timestamp or av_frame.pts is None:
             return self._next_index
-        return int(round((av_frame.pts - self._start) * self._tb * self._rate))
+        i = int(np.searchsorted(self._index.pts, av_frame.pts))
+        if i < len(self._index.pts) and self._index.pts[i] == av_frame.pts:
+            return int(self._index.slots[i])
+        return None
 
     def _seek(self, k: int) -> None:
-        pts = self._start + int((Fraction(k) / self._rate) / self._tb)
+        i = int(np.searchsorted(self._index.slots, k))
+        pts = int(self._index.pts[i]) if self._index.by_timestamp else self._start + int((Fraction(k) / self._rate) / self._tb)
         self._container.seek(pts, stream=self._stream, backward=True, any_frame=False)
-        self._decoder = self._container.decode(self._stream)
+        self._decoder = self._frames()
         self._next_index = -1  # unknown until the first frame comes
 
-    def _read_index(self, k: int) -> np.ndarray:
+    def _frames(self) -> Iterator:
+        """Decoded frames from the demuxer's position; a packet that does not decode is skipped
+        (its frame is then missing in the slots: recorded as corrupt by :meth:`_read_slot`)."""
+        av = import_av()
+        demux = self._container.demux(self._stream)
+        while True:
+            try:
+                packet = next(demux)
+            except StopIteration:
+                return
+            except av.error.FFmpegError:  # the container itself is damaged from here on
+                return
+            try:
+                yield from packet.decode()
+            except av.error.FFmpegError:
+                continue
+
+    def _read_slot(self, k: int) -> np.ndarray | None:
+        if k + self._base in self.faults.corrupt:
+            return None
         if self._decoder is None or not (0 <= k - self._next_index <= _SEEK_AHEAD):
-            if k == 0 and self._decoder is None:
-                self._decoder = self._container.decode(self._stream)
+            if k == int(self._index.slots[0]) and self._decoder is None:
+                self._decoder = self._frames()
+                self._next_index = k
             else:
                 self._seek(k)
+        last = self._next_index
         for f in self._decoder:
-            i = self._index(f)
-            self._next_index = i + 1
+            i = self._slot(f)
+            if i is None:  # a repeated frame: skipped (counted when the file was indexed)
+                continue
+            self._note_corrupt(k if last < 0 and i > k else last, i)
+            self._next_index = last = i + 1
             if i >= k:
-                if i > k:  # a file with a missing frame: say so rather than return a neighbour
-                    raise InputError(f"frame {self.frame_numbers[k]} (file index {k}) is missing from the stream",
-                                     source=self.path)
+                if i > k:  # slot k exists in the file but did not decode
+                    return None
                 return f.to_ndarray(format="bgr24")
-        self._decoder = None
-        raise InputError(f"the stream ended before frame {self.frame_numbers[k]} (file index {k})", source=self.path)
+        self._decoder = None  # nothing decodable up to the end: the rest of the file is corrupt
+        self._note_corrupt(k if last < 0 else last, int(self._index.slots[-1]) + 1)
+        return None
+
+    def _note_corrupt(self, lo: int, hi: int) -> None:
+        """Slots of the file in ``[lo, hi)`` that the decoder skipped: corrupt (lo < 0: unknown start)."""
+        if lo < 0 or hi <= lo:
+            return
+        a, b = np.searchsorted(self._index.slots, [lo, hi])
+        self.faults.corrupt.update((self._index.slots[a:b] + self._base).tolist())
+
+    def try_read(self, frame: int) -> np.ndarray | None:
+        """The image of routine frame ``frame``, or None when the file lacks it or it does not decode."""
+        if not self.has(frame):
+            return None
+        return self._read_slot(int(frame) - self._base)
 
     def read(self, frame: int) -> np.ndarray:
-        """The image of routine frame ``frame``: (H, W, 3) uint8 BGR."""
-        return self._read_index(self.index_of(frame))
+        """The image of routine frame ``frame``: (H, W, 3) uint8 BGR (InputError when dropped or corrupt)."""
+        img = self._read_slot(self.index_of(frame))
+        if img is None:
+            raise InputError(f"frame {frame} cannot be decoded: it lies in a corrupt stretch of the file", source=self.path)
+        return img
 
     def __iter__(self) -> Iterator[tuple[int, np.ndarray]]:
-        """Every frame in order: ``(frame number, (H, W, 3) uint8 BGR)``."""
+        """Every decodable frame in order: ``(frame number, (H, W, 3) uint8 BGR)``."""
         return self.iter_frames()
 
     def iter_frames(self, start: int | None = None, stop: int | None = None) -> Iterator[tuple[int, np.ndarray]]:
-        """Frames ``start..stop`` (routine numbers, inclusive; default: the whole file) in order."""
+        """Frames ``start..stop`` (routine numbers, inclusive; default: the whole file) in order,
+        leaving out dropped and corrupt ones (see :attr:`faults`)."""
         if not len(self):
             return
         lo = self.frame_numbers[0] if start is None else max(int(start), int(self.frame_numbers[0]))
         hi = self.frame_numbers[-1] if stop is None else min(int(stop), int(self.frame_numbers[-1]))
-        for fr in range(int(lo), int(hi) + 1):
-            yield fr, self.read(fr)
+        for fr in self.frame_numbers[(self.frame_numbers >= lo) & (self.frame_numbers <= hi)]:
+            img = self._read_slot(int(fr) - self._base)
+            if img is not None:
+                yield int(fr), img
 
     def close(self) -> None:
         self._decoder = None
@@ -214,12 +296,15 @@ class VideoSet:
         return np.unique(np.concatenate(parts)) if parts else np.zeros(0, np.int64)
 
     def _one(self, r: VideoReader | None, frame: int) -> np.ndarray | None:
-        if r is None or not len(r) or not r.frame_numbers[0] <= frame <= r.frame_numbers[-1]:
-            return None
-        return r.read(frame)
+        return None if r is None else r.try_read(frame)
+
+    def faults(self) -> dict[str, "VideoFaults"]:
+        """Camera name -> what its video lacked or held twice (dropped, repeated, corrupt frames)."""
+        return {n: r.faults for n, r in zip(self.camera_names, self.readers) if r is not None}
 
     def read(self, frame: int) -> list[np.ndarray | None]:
-        """Frame ``frame`` of every camera: a list of (H, W, 3) uint8 BGR or None, rig order."""
+        """Frame ``frame`` of every camera: a list of (H, W, 3) uint8 BGR or None (no video, a frame
+        the video lacks, dropped or corrupt), rig order."""
         return list(self._pool.map(lambda r: self._one(r, frame), self.readers))
 
     def iter_frames(self, frames: Iterable[int] | None = None) -> Iterator[tuple[int, list[np.ndarray | None]]]:
@@ -310,11 +395,14 @@ def open_videos(routine_folder: str | Path, camera_names: Sequence[str], first_f
 
 
 def write_video(path: str | Path, frames: Iterable[np.ndarray], fps: float, codec: str | None = None,
-                options: Mapping[str, str] | None = None) -> int:
+                options: Mapping[str, str] | None = None, timestamps: Sequence[float] | None = None) -> int:
     """Write ``(H, W, 3)`` uint8 BGR ``frames`` as a video; returns the number of frames written.
 
     codec: default ``libx264`` (yuv420p, crf 18; even sizes) for ``.mp4``/``.mov``, ``ffv1``
     (lossless, bgr0) for ``.mkv``/``.avi`` -- tests that check pixels use ``.mkv``.
+    timestamps: each frame's presentation time in frame periods (default 0, 1, 2, ...; increasing,
+    to 1/100 of a period): a capture with dropped (a step of 2 or more) or repeated (a step under
+    0.5) frames, as a capture card writes them.
     """
     av = import_av()
     path = Path(path)
@@ -323,9 +411,12 @@ def write_video(path: str | Path, frames: Iterable[np.ndarray], fps: float, code
     codec = codec or ("ffv1" if lossless else "libx264")
     rate = Fraction(fps).limit_denominator(1001)
     n = 0
+    fine = 1 if timestamps is None else 100  # time base: a frame period, or 1/100 of one
     with av.open(str(path), mode="w") as out:
         stream = out.add_stream(codec, rate=rate, options=dict(options or ({"crf": "18"} if codec == "libx264" else {})))
         stream.pix_fmt = "bgr0" if codec == "ffv1" else "yuv420p"
+        if fine > 1:
+            stream.codec_context.time_base = 1 / (rate * fine)
         for img in frames:
             img = np.ascontiguousarray(img, dtype=np.uint8)
             if img.ndim != 3 or img.shape[2] != 3:
@@ -333,8 +424,8 @@ def write_video(path: str | Path, frames: Iterable[np.ndarray], fps: float, code
             if n == 0:
                 stream.width, stream.height = img.shape[1], img.shape[0]
             frame = av.VideoFrame.from_ndarray(img, format="bgr24")
-            frame.pts = n
-            frame.time_base = 1 / rate
+            frame.pts = n if timestamps is None else int(round(float(timestamps[n]) * fine))
+            frame.time_base = 1 / (rate * fine)
             for packet in stream.encode(frame):
                 out.mux(packet)
             n += 1

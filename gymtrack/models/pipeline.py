@@ -53,6 +53,7 @@ class DetectRun:
     skipped_frames: int = 0       # frames numbered below 1 (a camera's offset), not in MOTChallenge files
     missing_images: int = 0       # (frame, camera) pairs without an image (a shorter video, an offset)
     times: StepTimes = field(default_factory=StepTimes)
+    video_faults: dict = field(default_factory=dict)  # camera -> VideoFaults: dropped, repeated, corrupt frames
 
 
 @dataclass
@@ -101,6 +102,7 @@ def detect_videos(videos: VideoSet, detector: Detector, frames=None, progress: P
         run.detections = Detections.from_arrays(np.concatenate(fr_col), np.concatenate(cam_col),
                                                 np.concatenate(box_col).reshape(-1, 4), videos.camera_names,
                                                 score=np.concatenate(score_col))
+    run.video_faults = {c: f for c, f in videos.faults().items() if f}
     return run
 
 

@@ -42,6 +42,7 @@ from ..skeletons import Skeleton
 from .anchor import anchor_on_plane, bone_lengths, lines_of_sight, opposite_only, plane_spread, pull_to_bones
 from .consensus import settle_ties, view_consensus
 from .dlt import gauss_newton, residuals, weighted_dlt
+from .limb_check import LimbCheck, check_arms
 from .smooth import smooth_track
 
 METHODS = ("dlt", "robust")
@@ -113,10 +114,13 @@ class LiftOptions:
     smooth_outlier_m: float = 0.15
     plane_score_factor: float = 0.5
     fallback_score_factor: float = 0.3
+    arms: LimbCheck | None = None  #: arms against the track's bones and motion (:mod:`.limb_check`); None = off
 
     def __post_init__(self) -> None:
         for f in fields(self):
             val = getattr(self, f.name)
+            if f.name == "arms":
+                continue
             if isinstance(val, bool) or not isinstance(val, (int, float)) or not np.isfinite(val) or val < 0:
                 raise InputError(f"must be a finite number >= 0, got {val!r}", source="LiftOptions", field=f.name)
         if not 0 < self.flip_ratio <= 1:
@@ -354,6 +358,8 @@ def _robust(rig, P, u, v, ok, sc, skeleton, centre, normal, opt) -> Lifted:
         X3[relabel] = X3[relabel][:, flip]
         u, v, use, sc = (np.where(relabel, a[:, flip], a) for a in (u, v, use, sc))
     counts["frames_relabelled"] = int(relabel.sum())
+    X3, use, c_arms = check_arms(P, X3, u, v, use, np.where(relabel, ok[:, flip], ok), sc, gate, skeleton, opt.arms)
+    counts.update(c_arms)
     X3, how, weak, counts2 = _cascade(rig, X3, u, v, use, sc, box, centre, normal, skeleton, opt)
     counts.update(counts2)
     how_w = np.where(how == HOW_TRIANGULATED, 1.0, opt.plane_score_factor)

@@ -64,4 +64,7 @@ def routine_poses(routine, result, keypoints: str | Path | None = None, simulate
         if report is not None and routine.keypoints_report is not None:
             report.__dict__.update(routine.keypoints_report.__dict__)
         return routine.poses
-    return read_keypoints(kdir, routine.rig.names, skeleton=skeleton, report=report)
+    from ..formats.routine import apply_frame_offsets
+
+    poses = read_keypoints(kdir, routine.rig.names, skeleton=skeleton, report=report)
+    return apply_frame_offsets(poses, routine.scene.frame_offsets, routine.rig.names)[0]

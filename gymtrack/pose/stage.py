@@ -37,6 +37,7 @@ from ..geometry.camera import Rig
 from ..poses import HOW_NAMES, HOW_NONE, Poses2D, Poses3D
 from ..tracking.types import Target, Tracks3D, TrackResult
 from .assign import GIVEN, Assignment, assign_poses
+from .exclusive import exclusive_bodies, foreign_bodies
 from .lift import LiftOptions, lift_track
 from .skeleton_check import ASYMMETRY_MAX, BONE_CV_MAX, skeleton_consistency
 
@@ -189,7 +190,8 @@ def lift_poses(result: TrackResult, rig: Rig, scene: Scene, poses: Poses2D, all_
     method: ``dlt`` (paper Eq. 3 per joint) | ``robust``; plane: with ``robust``, pass the centre
         and the nearest plane's normal (False: the ablation "robust without plane anchoring").
     min_iou: the assignment's gate; joints: also assign by the joints' epipolar agreement where
-        boxes overlap (:mod:`gymtrack.pose.assign_joints`).
+        boxes overlap (:mod:`gymtrack.pose.assign_joints`), and leave a body two tracks' poses
+        found in one view to the track it fits (:mod:`gymtrack.pose.exclusive`).
     """
     if method not in LIFT_METHODS:
         raise InputError(f"unknown lifting method {method!r}; choose one of {', '.join(LIFT_METHODS)}", field="--lift")
@@ -209,7 +211,16 @@ def lift_poses(result: TrackResult, rig: Rig, scene: Scene, poses: Poses2D, all_
         warnings.warn(f"{int(unknown.sum())} poses name a track_id the track output does not have "
                       f"({', '.join(map(str, ids[:5]))}{'...' if ids.size > 5 else ''}); they are not lifted: were they "
                       "written for another track run?", GymtrackWarning, stacklevel=2)
-    mine = np.flatnonzero((a.poses.track_id >= 0) & ~unknown)
+    # one body, one person: a pose two tracks' crops both found stays with the track it fits
+    same = exclusive_bodies(a.poses, rig, np.where(unknown, -1, a.poses.track_id)) if joints else np.zeros(len(a.poses), bool)
+    tid = np.where(unknown | same, -1, a.poses.track_id)
+    foreign = np.zeros(len(tid), bool)
+    if joints and all_tracks:  # a crop holding another track's body: its pose goes to that track
+        t = result.tracks
+        moved = foreign_bodies(a.poses, rig, tid, t.frame, t.track_id, t.xyz)
+        foreign, tid = moved != tid, moved
+        a = replace(a, poses=replace(a.poses, track_id=np.where(unknown | same, a.poses.track_id, tid)))
+    mine = np.flatnonzero(tid >= 0)
     assigned = a.poses.subset(mine)
     seqs = track_sequences(result.tracks) if all_tracks else [target_sequence(result.target)]
     used, dup = np.zeros(len(assigned), bool), np.zeros(len(assigned), bool)
@@ -241,7 +252,8 @@ def lift_poses(result: TrackResult, rig: Rig, scene: Scene, poses: Poses2D, all_
                       f"{check['asymmetry']:.0%} (a body's: under {ASYMMETRY_MAX:.0%}); the 2D poses are probably read "
                       f"in the wrong joint order ({poses.skeleton.name}): check --skeleton", GymtrackWarning, stacklevel=2)
     counts = {"read": len(poses), **{k: v for k, v in a.counts.items() if k != "total"},
-              "unknown_track": int(unknown.sum()), "used": int(used.sum()), "duplicate": int((dup & ~used).sum()),
+              "unknown_track": int(unknown.sum()), "same_body": int(same.sum()),
+              "foreign_moved": int((foreign & (tid >= 0)).sum()), "foreign_dropped": int((foreign & (tid < 0)).sum()), "used": int(used.sum()), "duplicate": int((dup & ~used).sum()),
               "not_lifted": int((~used & ~dup).sum()), "scores_clipped": clipped,
               "tracks_without_pose": no_pose if all_tracks else 0,
               "bone_length_cv": round(check["bone_cv"], 3), "left_right_asymmetry": round(check["asymmetry"], 3)}

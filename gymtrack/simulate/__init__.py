@@ -10,7 +10,8 @@ Modules: :mod:`.venue` (cameras), :mod:`.body` (COCO-17 skeleton, postures, 3D e
 routine per apparatus), :mod:`.people` (coaches, judges, background), :mod:`.detector` (true
 boxes and the detector model), :mod:`.routine` (orchestration and files), :mod:`.suite` (suites
 of routines), :mod:`.plot`, :mod:`.pose_model` (a top-down 2D pose model run on a method's
-boxes; geometry in :mod:`.pose_view`), :mod:`.render` (every view rendered as video frames).
+boxes; geometry in :mod:`.pose_view`), :mod:`.render` (every view rendered as video frames),
+:mod:`.crowd` (a routine plus a group standing within arm's reach).
 
 Use :func:`simulate_routine` (in memory, optionally written), :func:`simulate_n_cams` (one
 performance with n_cam = 2, 3, 4) or :func:`simulate_suite`; the

@@ -32,6 +32,7 @@ from ..geometry.camera import Rig
 from . import body as B
 from .detector import DetectorParams, TrueBoxes, detect, true_boxes
 from .elements import ground_truth_elements
+from .lengths import MAX_SECONDS, MIN_SECONDS, check_seconds  # noqa: F401  (MIN/MAX: re-exported)
 from .motion import PERFORMING, PHASE_NAMES
 from .people import Crowd, Person, judges_layout
 from .skills import Event, Layout, target_routine
@@ -39,8 +40,6 @@ from .venue import FPS, make_rig
 
 #: Default routine length in seconds (a vault is short by nature).
 DEFAULT_SECONDS = {name: (20.0 if name == "vault" else 60.0) for name in APPARATUS_NAMES}
-MIN_SECONDS = 10.0
-MAX_SECONDS = 600.0
 TARGET_ID = 1
 #: Background walking lanes (people entering and leaving), per apparatus.
 WALKER_SLOTS = (3, 7)
@@ -306,9 +305,7 @@ def check_args(apparatus: str, n_cam: int | None, seed, seconds) -> tuple[str, i
         raise InputError(f"seed must be a whole number, got {seed!r}", field="seed") from None
     if seed < 0:
         raise InputError(f"seed must be >= 0, got {seed}", field="seed")
-    seconds = DEFAULT_SECONDS[apparatus] if seconds is None else float(seconds)
-    if not (MIN_SECONDS <= seconds <= MAX_SECONDS):
-        raise InputError(f"seconds must be between {MIN_SECONDS:g} and {MAX_SECONDS:g}, got {seconds:g}", field="seconds")
+    seconds = check_seconds(apparatus, DEFAULT_SECONDS[apparatus] if seconds is None else float(seconds))
     return apparatus, n_cam, seed, seconds
 
 
@@ -418,7 +415,8 @@ def simulate_routine(apparatus: str, n_cam: int = 4, seed: int = 0, seconds: flo
         opposite pair cam0/cam1 (other people are detected in every view).
     seed: the routine's seed; the same seed gives the same routine bit for bit, and the same
         performance for every ``n_cam``.
-    seconds: length; default :data:`DEFAULT_SECONDS` (60 s, vault 20 s); 10 to 600. Every
+    seconds: length; default :data:`DEFAULT_SECONDS` (60 s, vault 20 s); from what the apparatus's
+        routine needs (:mod:`.lengths`; a vault: 5 s, one vault) to an hour. Every
         apparatus fits walking in, mount, skills, dismount and landing into 20 s; shorter
         routines (uneven bars under ~20 s, rings and horizontal bar under ~15 s) end before the
         dismount.

@@ -29,6 +29,8 @@ def track_detections(
     mode: Method | str = DEFAULT_MODE,
     association: str = "iou",
     progress: Callable[[int, int], None] | None = None,
+    watch_cameras: bool = False,
+    recalibrate: bool = True,
 ) -> TrackResult:
     """Run the streaming :class:`Tracker` over all frames of ``detections`` (offline use): one
     :meth:`Tracker.update` per frame with boxes, so input is checked as in streaming use.
@@ -37,8 +39,12 @@ def track_detections(
 
     progress: optional ``progress(frames_done, frames_total)`` callback (frames with boxes), called
     every ~100 frames.
+
+    watch_cameras: watch the cameras for a knock or a desync (:mod:`.drift`); recalibrate: then a
+    knocked camera's rotation re-estimated and applied from then on.
     """
-    tracker = Tracker(rig, resolve_auto_planes(rig, scene, detections, track_detections), mode=mode, association=association)
+    tracker = Tracker(rig, resolve_auto_planes(rig, scene, detections, track_detections), mode=mode, association=association,
+                      watch_cameras=watch_cameras, recalibrate=recalibrate)
     det = detections.sorted()
     outs = []
     if len(det):

@@ -28,6 +28,7 @@ COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulate
 INGREDIENT_COUNTS: dict[str, tuple[str, ...]] = {
     "motion_link": MOTION_COUNTS, "image_motion": VIEW_COUNTS, "exclusion": ("points_suppressed",),
     "floor": ("floor_single_view",), "ghost_test": ("floor_ghosts_confirmed",), "keep_older": ("links_older",),
+    "handover": ("target_handovers",),
 }
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
 
@@ -65,6 +66,7 @@ def tracker_summary(t) -> dict:
     if t.association == "oracle":
         s["detections_dropped_false_positive"] = {n: int(v) for n, v in zip(names, t.false_positives)}
         s["detections_dropped_duplicate"] = int(t.counts["duplicates"])
+    s.update(t.venue.summary())  # a knocked or unsynchronised camera (only when there is one)
     return s
 
 

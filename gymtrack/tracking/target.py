@@ -37,6 +37,7 @@ from ..geometry.plane import Plane
 from ._kernels.target import BodyBox
 from ._kernels.target import buffered_boxes as buffered_boxes_kernel
 from ..detections import Detections
+from .handover import TargetHandover
 from .identify import TargetBackfill, TargetSelector, identify_indicator
 from .smoothing import TargetSmoother
 from .types import Target, TargetRows, Tracks3D
@@ -55,8 +56,9 @@ class TargetStage:
     and the body box's half-length.
     """
 
-    def __init__(self, rig: Rig, scene: Scene):
+    def __init__(self, rig: Rig, scene: Scene, handover: TargetHandover | None = None):
         p = scene.params
+        self.handover = handover  # the recipe's handover (.handover): None is the paper's Eq. 13 alone
         self.rig = rig
         self.n_cameras = len(rig)
         self.perf = np.asarray(scene.performance_space, dtype=np.float64)
@@ -72,7 +74,7 @@ class TargetStage:
         self._none = (Target.empty(), Detections.empty(rig.names))  # what most calls return (immutable, empty)
 
     def __len__(self) -> int:
-        return len(self.selector) + len(self.smoother) + len(self.backfill)
+        return len(self.selector) + len(self.smoother) + len(self.backfill) + len(self.handover or ())
 
     @property
     def switches(self) -> int:
@@ -107,7 +109,12 @@ class TargetStage:
         if len(tracks):
             self._last_point = max(self._last_point if self._last_point is not None else a, int(tracks.frame.max()))
         ind, inperf = identify_indicator(tracks.xyz, tracks.top_z, tracks.bottom_z, self.perf, self.h_top, self.h_bot)
-        target = self.selector.select(a, b, tracks.frame, tracks.track_id, ind, inperf, ended)  # (b-a+1,)
+        if self.handover is None:
+            target = self.selector.select(a, b, tracks.frame, tracks.track_id, ind, inperf, ended)  # (b-a+1,)
+        else:  # the new track that takes up the target's as the old one for Eq. 13; the rows keep their ids
+            sel, ended_sel = self.handover.step(tracks.frame, tracks.track_id, tracks.xyz, ended, self.selector)
+            target = self.selector.select(a, b, tracks.frame, sel, ind, inperf, ended_sel)
+            target = self.handover.actual(a, target, tracks.frame, tracks.track_id, sel)
         self.backfill.push(a, target, TargetRows.from_tracks(tracks, track_box_sizes(tracks, boxes, self.n_cameras)))
         upto = b - self.backfill_frames
         emitted = [self.smoother.push(rows)] if (rows := self.backfill.pop(upto)) is not None else []

@@ -66,6 +66,7 @@ from ..geometry.plane import Plane
 from ..geometry.views import opposite_pairs
 from ._kernels import warm_up
 from ._kernels.single_view import frame_rows_check
+from .drift import DriftMonitor
 from .clustering import complete_linkage, tracklet_distances
 from .floor import continuation_only, drop_floor_ghosts, floor_split
 from .exclusion import suppress_duplicates
@@ -78,6 +79,7 @@ from .plane_refine import PlaneRefiner
 from .reconstruct import cluster_members, fallback_segments, opposite_clusters, outliers, outliers_at_mean, triangulate_clusters
 from .single_view import IoUTracker
 from .single_view_motion import MotionIoUTracker, needs_motion
+from .handover import TargetHandover
 from .target import TargetStage
 from .types import TrackerOutput, Tracks3D, WindowTracklets, WindowTracklets3D
 from .records import BoxTable, WindowRecords
@@ -98,6 +100,8 @@ class Tracker:
         :data:`~gymtrack.modes.RECIPES` (``cascade`` | ``triangulation`` | ``plane`` | ``cascade+``);
         ``mode=`` is the same argument under its older name.
     association: ``iou`` (the method) | ``oracle`` (ground-truth ids in ``track_id``).
+    watch_cameras: watch each camera's residuals for a knock or a desync (:mod:`.drift`; off by default);
+    recalibrate: then a knocked camera's rotation re-estimated and applied (the warning stays).
 
     Use: ``out = tracker.update(frame, detections_of_that_frame)`` for increasing frame
     numbers (frames without boxes may be skipped), then ``tracker.finish()``; every call
@@ -105,7 +109,7 @@ class Tracker:
     """
 
     def __init__(self, rig: Rig, scene: Scene, method: Method | str = DEFAULT_MODE, association: str = "iou",
-                 *, mode: Method | str | None = None):
+                 *, mode: Method | str | None = None, watch_cameras: bool = False, recalibrate: bool = True):
         try:
             m = self.method = method_of(method if mode is None else mode)
         except ValueError as e:
@@ -146,7 +150,8 @@ class Tracker:
                        if m.motion_link and association == "iou" else None)
         # frames a segment's end box is held (windows): max_age, or hold_seconds (capped at max_age)
         self.hold = p.max_age if m.hold_seconds is None else min(p.max_age, int(m.hold_seconds * scene.fps))
-        self.target = TargetStage(rig, scene)
+        self.target = TargetStage(rig, scene, TargetHandover(p.identify_frames, self.counts) if m.handover else None)
+        self.venue = DriftMonitor(rig, scene.fps, p.step, self.opposite, recalibrate, active=watch_cameras)  # knocked or unsynchronised cameras
         # the apparatus plane refined online (.plane_refine); planes: auto turns it on
         every = p.refine_plane or (REFINE_EVERY if scene.auto_planes else 0)
         self.refiner = PlaneRefiner(self.P, scene, self.planes[0], every) if m.refine_plane and every else None
@@ -190,7 +195,8 @@ class Tracker:
                 raise InputError(f"update({frame}, ...) got a box of frame {bad}", field="frame")
             raise InputError(f"camera index outside 0..{self.n_cameras - 1}", field="camera")
         self.frames += len(camera) > 0
-        self._ingest(frame, camera, detections.box, detections.score, detections.track_id)
+        box = self.venue.correct(frame, camera, detections.box) if self.venue.turns else detections.box
+        self._ingest(frame, camera, box, detections.score, detections.track_id)
         return self._collect()
 
     def finish(self) -> TrackerOutput:
@@ -205,6 +211,7 @@ class Tracker:
             target, boxes = self._timed("target", self.target.finish)
             if len(target):
                 self._out.append(TrackerOutput(Tracks3D.empty(), Detections.empty(self.names), target, boxes))
+            self.venue.warn_sync()
         return self._collect()
 
     def state_size(self) -> int:
@@ -333,6 +340,7 @@ class Tracker:
         else:
             self.counts["segments_dropped_single"] += int(np.count_nonzero(~multi))
         tri = triangulate_clusters(segs, members[multi], self.P)
+        self.venue.observe(segs.start, segs.box, segs.observed, members[multi])
         tri = tri if fused is None else WindowTracklets3D.concat([tri, fused])
         if self.method.ghost_test:  # Eq. 4, then the floor's ghost test; a ghost's segments may go to the floor only
             if self._space_mean is None:  # (the paper's Eq. 4 first; by the mean it runs inside the ghost test's call)
@@ -429,4 +437,4 @@ class Tracker:
             return self._nothing
         out = TrackerOutput.concat(self._out, self.names) if len(self._out) != 1 else self._out[0]
         self._out = []
-        return out
+        return out if not self.venue.turns else self.venue.uncorrect_output(out)

@@ -1,0 +1,323 @@
+"""The venue check: each camera's residuals watched for a knocked camera and for a camera out of sync.
+
+Beyond the paper, which assumes a fixed, synchronised rig (Section III-B). Every third window
+(:data:`EVERY_WINDOWS`) the tracker's clusters of three views or more give residuals: the point
+that one non-opposite *pair* of the other views triangulates (Eq. 3's two-view case, midpoint of
+the rays, normalised image coordinates), projected into a third view, minus where that view saw
+it -- an angle (radians) per camera, pair, point and frame. A camera is judged by each pair
+without it, and by its least-moved pair, so that a knocked camera does not drag the others.
+
+- A knocked camera (turned about its centre) moves all its points by the same angle: its median
+  residual over the last second steps away from its median of the five seconds before, clearly
+  more than the other cameras', and a rotation fitted to the points explains the step. Then
+  :class:`DriftMonitor` reports the camera, the frame it started, the size in degrees, and (``recalibrate``) re-estimates the camera's rotation from the points
+  the other views triangulate (a rotation-only fit of the rays, Kabsch / Wahba's problem) and
+  maps that camera's later boxes back into the calibrated view (``correct``), and the boxes the
+  tracker reports back out (``uncorrect``): a rotation about the centre is the image homography
+  ``K R K^-1``.
+- A camera out of sync by ``o`` frames shows its points where the others saw them ``o`` frames
+  earlier: its residual is ``-o`` times its points' image velocity. The least-squares ``o``
+  over the routine (:meth:`DriftMonitor.sync_suspects`) names the camera and the likely offset.
+
+Shapes: a window's clusters ``members`` (M, C), segments' undistorted boxes (K, W, 4).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from ..errors import GymtrackWarning
+from ..geometry.camera import Camera, Rig
+
+__all__ = ["DriftMonitor", "turn_pixels", "fit_rotation"]
+
+BASELINE_SECONDS = 5.0  # the seconds of residuals before the last one: where the camera was
+RECENT_SECONDS = 1.0  # a camera's residual must have stepped away for this long
+EVERY_WINDOWS = 3  # windows between samples (residuals change slowly; keeps the check's cost small)
+MIN_DEG = 0.3  # the smallest step reported (below: how much the box centres' agreement wanders)
+NOISE_FACTOR = 3.0  # ... or this many times the scatter of one sample's median residual
+CONSISTENT = 2.0  # the fitted turn may be at most this many times the step (plus MIN_DEG)
+SEPARATION = 1.5  # the knocked camera's step against the largest of the others' (which it drags along)
+MAX_RESIDUAL = 0.05  # radians (3 deg): a larger residual is a wrong association, not drift
+MIN_POINTS = 8  # points of a camera x pair in a sample for its median to count
+
+
+def turn_pixels(cam: Camera, uv: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+    """(n, 2) raw pixels of ``cam`` -> where they lie after the camera turned by ``rotation`` (3, 3,
+    camera coordinates) about its centre: every ray turns by ``rotation`` (distortion undone, then
+    applied again)."""
+    if not len(uv):
+        return np.asarray(uv, dtype=np.float64)
+    x = cam.undistort(uv)
+    ray = np.c_[x, np.ones(len(x))] @ np.linalg.inv(cam.K).T
+    return cam.project(cam.centre + (ray @ rotation.T) @ cam.R)
+
+
+def fit_rotation(before: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """(n, 3) directions in the calibrated camera, (n, 3) where the camera sees them now -> the
+    rotation ``R`` (3, 3) with ``after ~ R before`` (least squares on unit vectors; Kabsch)."""
+    a = before / np.linalg.norm(before, axis=1, keepdims=True)
+    b = after / np.linalg.norm(after, axis=1, keepdims=True)
+    U, _, Vt = np.linalg.svd(b.T @ a)
+    d = np.sign(np.linalg.det(U @ Vt))
+    return U @ np.diag([1.0, 1.0, d]) @ Vt
+
+
+def _nanmedian(a: np.ndarray) -> np.ndarray:
+    """Median over axis 1 ignoring NaN (NaN where all are): numpy's nanmedian is slow on small arrays."""
+    s = np.sort(a, axis=1)  # (NaN last)
+    n = np.isfinite(a).sum(axis=1, keepdims=True)
+    lo = np.take_along_axis(s, np.maximum(n - 1, 0) // 2, axis=1)
+    med = np.where(n % 2 == 1, lo, (lo + np.take_along_axis(s, np.minimum(n // 2, a.shape[1] - 1), axis=1)) / 2)
+    return np.where(n > 0, med, np.nan)[:, 0]
+
+
+def _degrees(R: np.ndarray) -> float:
+    return float(np.degrees(np.arccos(np.clip((np.trace(R) - 1) / 2, -1, 1))))
+
+
+class DriftMonitor:
+    """Residuals per camera x view pair, sampled every few windows; knock events; the sync regression.
+
+    rig: the cameras; fps: frames per second; step: frames between windows; opposite: (C, C) bool,
+    the view pairs judged opposite (:func:`~gymtrack.geometry.views.opposite_pairs`); recalibrate:
+    re-estimate a knocked camera's rotation and correct its later boxes; active: watch at all (off,
+    the default of the tracker: it costs about a fifth of the tracking speed and its thresholds still
+    raise a rare false alarm on clean routines).
+    """
+
+    def __init__(self, rig: Rig, fps: float, step: int, opposite: np.ndarray, recalibrate: bool = True,
+                 active: bool = True):
+        self.rig, self.fps, self.recalibrate, self.active = rig, fps, recalibrate, active
+        C = self.C = len(rig)
+        self.Kinv = np.stack([np.linalg.inv(c.K) for c in rig])
+        self.Rt = np.stack([c.R.T for c in rig])  # (C, 3, 3) camera -> world directions
+        self.centres = rig.centres
+        self.Pn = np.stack([np.c_[c.R, c.t] for c in rig])  # (C, 3, 4) normalised projections
+        every = step * EVERY_WINDOWS  # frames between samples
+        self.n_base = max(3, int(round(BASELINE_SECONDS * fps / every)))
+        self.n_recent = max(2, int(round(RECENT_SECONDS * fps / every)))
+        self.step, self._windows = every, 0
+        # the view pairs that triangulate (not opposite: ill-conditioned there); a camera is judged
+        # by the points of each pair without it (a knocked camera drags the pairs it is in)
+        pa, pb = np.triu_indices(C, 1)
+        keep = ~np.asarray(opposite, bool)[pa, pb]
+        self.pairs = (pa[keep], pb[keep])
+        Np = len(self.pairs[0])
+        self.outside = np.ones((Np, C), bool)  # (Np, C) the views outside each pair
+        self.outside[np.arange(Np), self.pairs[0]] = False
+        self.outside[np.arange(Np), self.pairs[1]] = False
+        L = self.n_base + self.n_recent
+        self.meds = np.full((C * Np, L, 2), np.nan)  # per camera x pair: the last L samples' median residual
+        self.frames = np.zeros(L, np.int64)  # each sample's last frame
+        self.points: list[list] = [[None] * L for _ in range(C * Np)]  # (world points, rays) of each sample
+        self.last_frame = 0
+        self.sums = np.zeros((C, 3))  # sync regression per camera: n, sum v.v, sum v.r
+        self.events: list[dict] = []
+        self.turns: dict[int, tuple[int, np.ndarray]] = {}  # camera -> (from frame, rotation now vs calibrated)
+        self.first: int | None = None
+
+    # ------------------------------------------------------------ per window
+    def observe(self, start: int, box: np.ndarray, observed: np.ndarray, members: np.ndarray) -> None:
+        """One window: segments' undistorted boxes (K, W, 4), observed (K, W), clusters (M, C).
+        Every :data:`EVERY_WINDOWS`-th window is used (the residuals change slowly; the cost stays small)."""
+        if not self.active:
+            return
+        if self.first is None:
+            self.first = start
+        self._windows += 1
+        if self._windows % EVERY_WINDOWS:
+            return
+        self.last_frame = frame = start + observed.shape[1] - 1
+        self.meds[:, :-1] = self.meds[:, 1:]  # a new sample (NaN where a camera x pair has too few points)
+        self.meds[:, -1] = np.nan
+        self.frames[:-1] = self.frames[1:]
+        self.frames[-1] = frame
+        for pts in self.points:
+            pts.pop(0)
+            pts.append(None)
+        members = members[(members >= 0).sum(axis=1) >= 3]
+        if len(members):
+            self._residuals(box, observed, members)
+        self._check()
+
+    def _residuals(self, box: np.ndarray, observed: np.ndarray, members: np.ndarray) -> None:
+        has = members >= 0
+        idx = np.where(has, members, 0)
+        obs = observed[idx] & has[..., None]  # (M, C, W)
+        uv = box[idx][..., :2]  # (M, C, W, 2)
+        x = np.einsum("cij,mcwj->mcwi", self.Kinv[:, :2, :2], uv) + self.Kinv[None, :, None, :2, 2]  # (M, C, W, 2)
+        pa, pb = self.pairs
+        pair_ok = obs[:, pa] & obs[:, pb]  # (M, Np, W): the pair saw the point
+        m, p, w = np.nonzero(pair_ok)
+        if not len(m):
+            return
+        X = self._midpoints(x[m, pa[p], w], pa[p], x[m, pb[p], w], pb[p])  # (n, 3), each from one pair
+        i, cam = np.nonzero(obs[m, :, w] & self.outside[p])  # the views outside the pair that saw it
+        Xi = X[i]
+        pc = np.einsum("nij,nj->ni", self.Pn[cam][:, :, :3], Xi) + self.Pn[cam][:, :, 3]
+        seen = x[m[i], cam, w[i]]
+        r = seen - pc[:, :2] / pc[:, 2:]  # seen - predicted (radians, small angles)
+        ok = (pc[:, 2] > 0) & (np.abs(r).max(axis=1) < MAX_RESIDUAL)
+        # image velocity of the seen points (central differences inside the window): the sync regression
+        vel = np.full_like(x, np.nan)
+        vel[:, :, 1:-1] = np.where((obs[..., 2:] & obs[..., :-2])[..., None], (x[:, :, 2:] - x[:, :, :-2]) / 2, np.nan)
+        v = vel[m[i], cam, w[i]]
+        good = ok & np.isfinite(v[:, 0])
+        for j, col in enumerate((np.ones(good.sum()), (v[good] ** 2).sum(1), (v[good] * r[good]).sum(1))):
+            self.sums[:, j] += np.bincount(cam[good], col, minlength=self.C)
+        key = cam * len(pa) + p[i]
+        order = np.argsort(key[ok], kind="stable")
+        ks, rs, Xs, ss = key[ok][order], r[ok][order], X[i[ok]][order], seen[ok][order]
+        cut = np.flatnonzero(np.diff(ks)) + 1
+        for k, rr, XX, sn in zip(ks[np.r_[0, cut]], np.split(rs, cut), np.split(Xs, cut), np.split(ss, cut)):
+            if len(rr) >= MIN_POINTS:
+                self.meds[k, -1] = np.median(rr, axis=0)
+                self.points[k][-1] = (XX, sn)
+
+    def _midpoints(self, xa: np.ndarray, a: np.ndarray, xb: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """(n, 2) normalised points of views ``a`` (n,) and ``b`` (n,) -> (n, 3) midpoints of the rays'
+        closest approach (Eq. 3's two-view case, closed form)."""
+        da = np.einsum("nij,nj->ni", self.Rt[a][:, :, :2], xa) + self.Rt[a][:, :, 2]
+        db = np.einsum("nij,nj->ni", self.Rt[b][:, :, :2], xb) + self.Rt[b][:, :, 2]
+        w0 = self.centres[a] - self.centres[b]
+        aa, bb, cc = (da * da).sum(1), (da * db).sum(1), (db * db).sum(1)
+        d, e = (da * w0).sum(1), (db * w0).sum(1)
+        den = aa * cc - bb * bb
+        with np.errstate(invalid="ignore", divide="ignore"):
+            s, t = (bb * e - cc * d) / den, (aa * e - bb * d) / den
+        return (self.centres[a] + s[:, None] * da + self.centres[b] + t[:, None] * db) / 2
+
+    def _steps(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per camera x pair: the step of the last second's median residual against the median of
+        the seconds before (radians; 0 where not judged), its threshold, and the baseline (2,)."""
+        nb = self.n_base
+        base_meds, recent = self.meds[:, :nb], self.meds[:, nb:]
+        base = _nanmedian(base_meds)  # (Nk, 2)
+        scatter = 1.4826 * _nanmedian(np.linalg.norm(base_meds - base[:, None], axis=2))
+        dev = np.linalg.norm(recent - base[:, None], axis=2)  # (Nk, n_recent)
+        ready = (np.isfinite(base_meds[..., 0]).sum(1) >= nb - 1) & np.isfinite(dev).all(axis=1)
+        step = np.where(ready, np.nan_to_num(dev).min(axis=1), 0.0)  # every sample of the last second moved
+        thr = np.where(ready, np.maximum(np.radians(MIN_DEG), NOISE_FACTOR * np.nan_to_num(scatter)), np.inf)
+        return step, thr, base
+
+    def _check(self) -> None:
+        """A knock: the camera whose step (the smallest over the pairs that judge it) passes its
+        threshold and is clearly the largest."""
+        step_k, thr_k, base_k = self._steps()
+        Np = len(self.pairs[0])
+        ready = np.isfinite(thr_k).reshape(self.C, Np)
+        if ready.any(axis=1).sum() < 2:
+            return
+        ratio_k = np.where(ready, (step_k / thr_k).reshape(self.C, Np), np.inf)
+        ratio = np.where(ready.any(axis=1), ratio_k.min(axis=1), 0.0)  # each camera: its least-moved pair
+        c = int(np.argmax(ratio))
+        others = np.delete(ratio, c)
+        if not ratio[c] > 1 or (len(others) and ratio[c] < SEPARATION * others.max()):
+            return
+        k = c * Np + int(np.argmin(ratio_k[c]))
+        dev = np.linalg.norm(self.meds[k] - base_k[k], axis=1)
+        moved = dev > step_k[k] / 2  # (NaN: not moved)
+        first = self.n_base  # the first sample of the run of moved samples reaching into the last second
+        while first > 0 and moved[first - 1]:
+            first -= 1
+        started = int(self.frames[first]) - self.step + 1
+        frame = self.last_frame
+        # the turn: the rotation fitted to the moved samples' points against the one fitted before
+        # (which holds the calibration's own small error); a step that no rotation explains is not a knock
+        pts = self.points[k]
+        before, after = [q for q in pts[:first] if q is not None], [q for q in pts[first:] if q is not None]
+        if not before or not after:
+            return
+        R = self._refit(c, after) @ self._refit(c, before).T
+        if not _degrees(R) <= CONSISTENT * np.degrees(step_k[k]) + MIN_DEG:
+            return  # (judged again at the next sample: a knock's turn is fitted well once its second has passed)
+        event = {"camera": self.rig.names[c], "start_frame": started, "detected_frame": int(frame),
+                 "start_seconds": round((started - self.first) / self.fps, 2),
+                 "degrees": round(float(np.degrees(step_k[k])), 2), "turn_degrees": round(_degrees(R), 2)}
+        if self.recalibrate:
+            prev = self.turns.get(c, (0, np.eye(3)))[1]
+            self.turns[c] = (int(frame) + 1, R @ prev)
+            event |= {"recalibrated_from_frame": int(frame) + 1, "rotation_degrees": round(_degrees(R @ prev), 2)}
+        self.events.append(event)
+        warnings.warn(f"camera {event['camera']} moved by about {event['degrees']} deg from frame {started} "
+                      f"({event['start_seconds']} s): knocked? " + (f"its rotation was re-estimated "
+                      f"({event['rotation_degrees']} deg) and applied from frame {frame + 1}" if self.recalibrate
+                      else "recalibrate it"), GymtrackWarning, stacklevel=2)
+        self.meds[:] = np.nan  # every camera's residuals moved with it: a new baseline after the move
+        for q in self.points:
+            q[:] = [None] * len(q)
+
+    def _refit(self, c: int, samples: list[tuple]) -> np.ndarray:
+        """The rotation of camera ``c`` against its calibration, from the (n, 3) world points the
+        other views triangulated and the (n, 3) rays it saw them on (camera coordinates) of ``samples``."""
+        X = np.concatenate([q[0] for q in samples])
+        seen = np.concatenate([q[1] for q in samples])
+        seen = np.concatenate([seen, np.ones((len(seen), 1))], axis=1)
+        cam = self.rig[c]
+        return fit_rotation((X - cam.centre) @ cam.R.T, seen)
+
+    # ------------------------------------------------------------ boxes in and out
+    def correct(self, frame: int, camera: np.ndarray, box: np.ndarray) -> np.ndarray:
+        """(n,) cameras, (n, 4) raw boxes of one frame -> the boxes as the calibrated cameras see them."""
+        for c, (first, R) in self.turns.items():
+            m = np.flatnonzero(camera == c)
+            if frame >= first and len(m):
+                box = box.copy()
+                box[m, :2] = turn_pixels(self.rig[c], box[m, :2], R.T)
+        return box
+
+    def uncorrect(self, frame: np.ndarray, camera: np.ndarray, box: np.ndarray) -> np.ndarray:
+        """The tracker's reported boxes (n,) moved back into the turned cameras' images."""
+        for c, (first, R) in self.turns.items():
+            m = np.flatnonzero((camera == c) & (frame >= first))
+            if len(m):
+                box = box.copy()
+                box[m, :2] = turn_pixels(self.rig[c], box[m, :2], R)
+        return box
+
+    def uncorrect_output(self, out):
+        """A :class:`~.types.TrackerOutput` with its boxes moved back into the turned cameras' images."""
+        import dataclasses
+
+        def back(d):
+            if not len(d):
+                return d
+            return type(d).of_columns(d.frame, d.camera, self.uncorrect(d.frame, d.camera, d.box), d.score, d.track_id,
+                                      d.camera_names)
+
+        return dataclasses.replace(out, boxes=back(out.boxes), target_boxes=back(out.target_boxes))
+
+    # ------------------------------------------------------------ at the end
+    def warn_sync(self) -> None:
+        """A warning for a camera whose residuals say it is out of sync."""
+        if not self.active:
+            return
+        for s in self.sync_suspects():
+            warnings.warn(f"camera {s['camera']} is probably out of sync by {s['offset']:+d} frames (its residuals "
+                          f"follow its points' motion, {s['estimate']:+.2f} frames): run gymtrack sync", GymtrackWarning,
+                          stacklevel=3)
+
+    def sync_suspects(self, min_frames: float = 0.5) -> list[dict]:
+        """Cameras whose residuals follow their points' motion: ``[{camera, offset, frames}]`` for a
+        least-squares offset of ``min_frames`` or more (``offset`` as scene.yaml's frame_offsets)."""
+        out = []
+        n, vv, vr = self.sums[:, 0], self.sums[:, 1], self.sums[:, 2]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            o = -vr / vv
+        worst = int(np.nanargmax(np.abs(o))) if np.isfinite(o).any() else -1
+        if worst >= 0 and abs(o[worst]) >= min_frames and n[worst] >= 50:
+            out.append({"camera": self.rig.names[worst], "offset": int(np.round(o[worst])),
+                        "estimate": round(float(o[worst]), 2), "points": int(n[worst])})
+        return out
+
+    def summary(self) -> dict:
+        """What the summary reports (empty on a clean routine)."""
+        s = {}
+        if self.events:
+            s["camera_moved"] = self.events
+        if sus := self.sync_suspects():
+            s["camera_out_of_sync"] = sus
+        return s

@@ -1,0 +1,119 @@
+"""The target handed over to the track that takes up where its track ended (the recipe's ``handover``).
+
+Paper: Section III-D, Eq. 13. When the target's track ends (linking did not continue it), the
+paper re-identifies a target by Eq. 13: more than Delta / 2 of the last Delta frames in the
+performance space with the body's top above ``h_top`` *and its bottom above* ``h_bot``. A gymnast
+who lost their track while standing -- a vault's landing, where the floor hypothesis or a broken
+2D track starts a new track -- never passes the bottom rule again, and the target is lost for
+the rest of the performance although a track follows the gymnast.
+
+Handover: a track born within :data:`RADIUS` of the target track's last point, between ``Delta /
+2`` frames before that track's end and ``Delta / 2`` frames after it, continues the target.
+For the selector, the new track's points after the old track's end carry the old track's id (an
+*alias*), so Eq. 13's counts run on; the target's output rows keep the real track ids (a
+handover shows as a track id change of the target, never hidden). Only the target changes:
+the 3D tracks are the same with or without it. Counted in ``target_handovers``.
+
+State (bounded): the first point of the tracks born in the last ``2 Delta`` frames, the aliases
+of tracks seen in that time, the target track's last point.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["RADIUS", "TargetHandover"]
+
+RADIUS = 1.0  #: metres: the new track's first point from the target track's last one, at most
+
+
+class TargetHandover:
+    """Aliases for :class:`~.identify.TargetSelector` (see the module docstring).
+
+    delta: Eq. 13's Delta (frames); counts: the tracker's counters (``target_handovers``).
+    Use per run of final frames: ``sel_tid, ended_sel = h.step(frame, tid, xyz, ended, selector)``,
+    then the selector on ``sel_tid`` / ``ended_sel``, then ``h.actual(a, target, frame, tid, sel_tid)``.
+    """
+
+    def __init__(self, delta: int, counts: dict, radius: float = RADIUS):
+        self.delta, self.half, self.radius, self.counts = int(delta), max(1, int(delta) // 2), float(radius), counts
+        self.alias: dict[int, tuple[int, int]] = {}  # track -> (root, from frame: its rows after this carry root)
+        self.live: dict[int, int] = {}  # root -> the track carrying it now
+        self.first: dict[int, tuple[int, np.ndarray]] = {}  # track -> (first frame, first point), recent births
+        self.last: dict[int, tuple[int, np.ndarray]] = {}  # root -> (frame, point) of its live track's last row
+        self.seen_max = -1
+
+    def __len__(self) -> int:
+        return len(self.alias) + len(self.first) + len(self.last)
+
+    def _rename(self, frame: np.ndarray, tid: np.ndarray) -> np.ndarray:
+        sel = tid.copy()
+        for n, (root, since) in self.alias.items():
+            sel[(tid == n) & (frame > since)] = root
+        return sel
+
+    def step(self, frame: np.ndarray, tid: np.ndarray, xyz: np.ndarray, ended: dict[int, int], selector
+             ) -> tuple[np.ndarray, dict[int, int]]:
+        """Rows (n,) of final track points: their ids as the selector sees them, and ``ended`` as it sees it."""
+        if len(tid) and int(tid.max()) > self.seen_max:  # births: rows are in frame order, first row first
+            new = np.flatnonzero(tid > self.seen_max)
+            ids, at = np.unique(tid[new], return_index=True)
+            for k, i in zip(ids.tolist(), new[at].tolist()):
+                self.first[k] = (int(frame[i]), xyz[i].copy())
+            self.seen_max = int(ids[-1])
+        root = selector.target if selector.target >= 0 else selector.last_target
+        if root >= 0:
+            live = self.live.get(root, root)
+            rows = np.flatnonzero(tid == live)
+            if len(rows):
+                self.last[root] = (int(frame[rows[-1]]), xyz[rows[-1]].copy())
+            if live in ended and root in self.last:
+                self.selector = selector
+                self._hand_over(root, live, ended[live])
+        sel = self._rename(frame, tid) if self.alias else tid
+        ended_sel = ended
+        if self.live:
+            ended_sel = {k: v for k, v in ended.items() if k not in self.live}
+            for r, live in self.live.items():
+                if live in ended:
+                    ended_sel[r] = ended[live]
+        self._forget(int(frame.max()) if len(frame) else None)
+        return sel, ended_sel
+
+    def _hand_over(self, root: int, live: int, end: int) -> None:
+        f_last, p_last = self.last[root]
+        best, best_d = -1, self.radius
+        for k, (s, p) in self.first.items():
+            if k == live or k in self.alias or k == root or not (end - self.half <= s <= end + self.half):
+                continue
+            d = float(np.linalg.norm(p - p_last))
+            if d <= best_d:
+                best, best_d = k, d
+        if best >= 0:
+            self.alias[best] = (root, end)
+            self.live[root] = best
+            self.counts["target_handovers"] += 1
+            if self.selector.target < 0 and self.selector.last_target == root:  # lost at the old track's end: resumed
+                self.selector.target = root
+
+    def actual(self, a: int, target: np.ndarray, frame: np.ndarray, tid: np.ndarray, sel: np.ndarray) -> np.ndarray:
+        """The selector's target per frame ``a..`` (alias ids) as the real track ids of those frames."""
+        moved = np.flatnonzero(sel != tid)
+        if not len(moved):
+            return target
+        out = target.copy()
+        i = frame[moved] - a
+        ok = (i >= 0) & (i < len(out))
+        hit = moved[ok][out[i[ok]] == sel[moved[ok]]]
+        out[frame[hit] - a] = tid[hit]
+        return out
+
+    def _forget(self, now: int | None) -> None:
+        if now is None:
+            return
+        old = now - 2 * self.delta
+        self.first = {k: v for k, v in self.first.items() if v[0] >= old}
+        for r in [r for r, (f, _) in self.last.items() if f < old]:
+            self.last.pop(r)
+            self.live.pop(r, None)
+            self.alias = {k: v for k, v in self.alias.items() if v[0] != r}

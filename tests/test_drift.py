@@ -1,0 +1,64 @@
+"""The venue check in the tracker (tracking.drift): a knocked camera warned, named and
+re-estimated; an unsynchronised camera named; nothing on a clean routine (simulator's truth)."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from gymtrack.eval.faults import desync_camera, knock_camera, knock_rotation
+from gymtrack.simulate.routine import simulate_routine
+from gymtrack.tracking.drift import fit_rotation
+from gymtrack.tracking.offline import track_detections
+
+
+@pytest.fixture(scope="module")
+def sim():
+    return simulate_routine("horizontal_bar", n_cam=4, seed=1, seconds=20)
+
+
+def _track(sim, det, recalibrate=True):
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        res = track_detections(sim.rig, sim.scene, det, mode="cascade+", watch_cameras=True, recalibrate=recalibrate)
+    return res, [str(x.message) for x in w]
+
+
+def test_fit_rotation_matches_scipy_align_vectors():
+    rng = np.random.default_rng(0)
+    a = rng.normal(size=(40, 3))
+    R = Rotation.from_rotvec([0.01, -0.02, 0.005]).as_matrix()
+    b = a @ R.T + rng.normal(scale=1e-3, size=a.shape)
+    want = Rotation.align_vectors(b / np.linalg.norm(b, axis=1, keepdims=True),
+                                  a / np.linalg.norm(a, axis=1, keepdims=True))[0].as_matrix()
+    assert np.allclose(fit_rotation(a, b), want, atol=1e-9)
+
+
+def test_clean_routine_has_no_venue_warning(sim):
+    res, msgs = _track(sim, sim.detections)
+    assert "camera_moved" not in res.summary and "camera_out_of_sync" not in res.summary
+    assert not [m for m in msgs if "knocked" in m or "out of sync" in m]
+
+
+def test_knocked_camera_named_with_start_and_size_and_reestimated(sim):
+    mid = 300
+    det = knock_camera(sim.detections, sim.rig[3], 3, mid, knock_rotation(1.0, seed=4))
+    res, msgs = _track(sim, det)
+    ev = res.summary["camera_moved"]
+    assert ev[0]["camera"] == "cam3"
+    assert mid - 30 <= ev[0]["start_frame"] <= mid + 30 and ev[0]["detected_frame"] <= mid + 5 * sim.scene.fps
+    assert 0.4 <= ev[0]["degrees"] <= 1.6 and 0.5 <= ev[0]["rotation_degrees"] <= 1.5
+    assert any("cam3" in m and "knocked" in m for m in msgs)
+    plain, _ = _track(sim, det, recalibrate=False)
+    assert plain.summary["camera_moved"][0]["camera"] == "cam3"
+    assert "recalibrated_from_frame" not in plain.summary["camera_moved"][0]
+
+
+def test_unsynchronised_camera_named_with_its_direction(sim):
+    res, msgs = _track(sim, desync_camera(sim.detections, 2, 3))
+    sus = res.summary["camera_out_of_sync"]
+    assert sus[0]["camera"] == "cam2" and 1 <= sus[0]["offset"] <= 4
+    assert any("cam2" in m and "out of sync" in m for m in msgs)

@@ -1,0 +1,124 @@
+"""Synchronisation from the data (tracking.sync, ``gymtrack sync``, scene.yaml ``frame_offsets``)
+and the fault generators it is measured with (eval.faults), against the simulator's truth."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+import yaml
+
+from gymtrack.errors import GymtrackWarning, RoutineError
+from gymtrack.eval.faults import desync_camera, drop_frames, knock_camera, knock_rotation
+from gymtrack.formats.motchallenge import write_mot_detections
+from gymtrack.formats.routine import load_routine
+from gymtrack.simulate.routine import simulate_routine
+from gymtrack.tracking.sync import estimate_offsets
+
+
+@pytest.fixture(scope="module")
+def sim():
+    return simulate_routine("horizontal_bar", n_cam=4, seed=3, seconds=12)
+
+
+@pytest.mark.parametrize("shifts", [{1: 3, 3: -5}, {2: 8}, {1: -1, 2: 1, 3: 2}])
+def test_offsets_recovered_exactly(sim, shifts):
+    det = sim.detections
+    for cam, d in shifts.items():
+        det = desync_camera(det, cam, d)
+    res = estimate_offsets(det, sim.rig, search=10)
+    want = [0] + [shifts.get(c, 0) for c in range(1, 4)]
+    assert res.offsets.tolist() == want
+    assert np.all(np.abs(res.offsets_subframe - want) < 0.5)
+    assert not res.undecided()
+
+
+def test_desync_moves_only_that_camera(sim):
+    det = desync_camera(sim.detections, 2, 4)
+    other = sim.detections.camera != 2
+    assert np.array_equal(np.sort(det.frame[det.camera != 2]), np.sort(sim.detections.frame[other]))
+    assert det.frame[det.camera == 2].min() == sim.detections.frame[~other].min() + 4
+
+
+def test_frame_offsets_applied_when_read_and_unknown_camera_refused(sim, tmp_path):
+    sim.write(tmp_path / "r")
+    clean = load_routine(tmp_path / "r").detections
+    scene = yaml.safe_load((tmp_path / "r" / "scene.yaml").read_text())
+    (tmp_path / "r" / "scene.yaml").write_text(yaml.safe_dump({**scene, "frame_offsets": {"cam1": 2}}))
+    with pytest.warns(GymtrackWarning, match="before frame 0"):
+        r = load_routine(tmp_path / "r")
+    shifted, want = r.detections, clean.frame[clean.camera == 1] - 2
+    assert np.array_equal(np.sort(shifted.frame[shifted.camera == 1]), np.sort(want[want >= 0]))
+    assert r.shifted_out == (want < 0).sum() > 0
+    assert np.array_equal(shifted.frame[shifted.camera == 0], clean.frame[clean.camera == 0])
+    (tmp_path / "r" / "scene.yaml").write_text(yaml.safe_dump({**scene, "frame_offsets": {"camX": 2}}))
+    with pytest.raises(RoutineError, match="camX"):
+        load_routine(tmp_path / "r")
+
+
+def test_sync_command_writes_offsets_that_resynchronise(sim, tmp_path):
+    from typer.testing import CliRunner
+
+    from gymtrack.cli import app
+
+    sim.write(tmp_path / "r")
+    clean = load_routine(tmp_path / "r").detections
+    late = desync_camera(sim.detections, 3, 6).for_camera(3)
+    write_mot_detections(tmp_path / "r" / "detections" / "cam3.txt", late)
+    out = CliRunner().invoke(app, ["sync", str(tmp_path / "r"), "--write"])
+    assert out.exit_code == 0, out.output
+    assert "cam3: +6 frames" in out.output
+    assert yaml.safe_load((tmp_path / "r" / "scene.yaml").read_text())["frame_offsets"] == {"cam3": 6}
+    back = load_routine(tmp_path / "r").detections
+    assert np.array_equal(np.sort(back.frame[back.camera == 3]), np.sort(clean.frame[clean.camera == 3]))
+
+
+def test_knock_matches_opencv_projection_of_the_turned_camera(sim):
+    cam = sim.rig[1]
+    R = knock_rotation(1.0, seed=2)
+    X = np.array([[0.5, 0.2, 1.5], [-1.0, 0.8, 2.2], [1.2, -0.4, 0.3]])
+    uv = cam.project(X)
+    det = sim.detections.select(np.arange(3))
+    det = type(det)(np.array([1, 5, 9]), np.array([1, 1, 1], np.int16), np.c_[uv, np.ones((3, 2))], det.score,
+                    det.track_id, det.camera_names)
+    moved = knock_camera(det, cam, 1, 5, R)
+    want, _ = cv2.projectPoints(X, cv2.Rodrigues(R @ cam.R)[0], R @ cam.t, cam.K, cam.dist)
+    assert np.allclose(moved.box[0, :2], uv[0])  # before the knock: unchanged
+    assert np.allclose(moved.box[1:, :2], want[1:, 0], atol=1e-4)
+    assert np.isclose(np.degrees(np.arccos((np.trace(R) - 1) / 2)), 1.0)
+
+
+def test_drop_frames_drops_that_share_of_one_camera(sim):
+    det, n = drop_frames(sim.detections, 2, 0.02, seed=1)
+    frames = np.unique(sim.detections.frame[sim.detections.camera == 2])
+    assert n == round(0.02 * len(frames))
+    assert len(np.unique(det.frame[det.camera == 2])) == len(frames) - n
+    assert (det.camera != 2).sum() == (sim.detections.camera != 2).sum()
+
+
+def test_resynchronise_gives_back_the_synchronised_boxes(sim):
+    from gymtrack.eval.fault_bench import resynchronise
+
+    fixed, offs = resynchronise(desync_camera(sim.detections, 2, -4), sim.rig)
+    assert offs.tolist() == [0, 0, -4, 0]
+    back = fixed.for_camera(2)
+    clean = sim.detections.for_camera(2)
+    keep = clean.frame > 4  # (its first 4 frames were pushed before frame 1: left out)
+    assert np.array_equal(np.sort(back.frame), np.sort(clean.frame[keep]))
+
+
+def test_faults_table_pools_and_markdown_sides():
+    from gymtrack.eval.fault_bench import faults_markdown, faults_table
+
+    base = {"routine": "r", "apparatus": "a", "camera": "cam1", "fault": "desync 3", "method": "m", "mota": 0.5, "idf1": 0.5}
+    rows = [{**base, "state": "clean", "aed_sum": 1.0, "aed_n": 10, "cov_covered": 10, "cov_frames": 10},
+            {**base, "state": "fault", "aed_sum": 4.0, "aed_n": 10, "cov_covered": 8, "cov_frames": 10, "exact": True,
+             "offset": 3, "found": 3},
+            {**base, "state": "fault", "aed_sum": 2.0, "aed_n": 30, "cov_covered": 10, "cov_frames": 10, "exact": False,
+             "offset": 3, "found": 2},
+            {**base, "state": "corrected", "aed_sum": 1.1, "aed_n": 10, "cov_covered": 10, "cov_frames": 10}]
+    t = {x["state"]: x for x in faults_table(rows)}
+    assert np.isclose(t["fault"]["aed"], 6.0 / 40) and np.isclose(t["fault"]["coverage"], 0.9)
+    md = faults_markdown(rows)
+    assert "| desync 3 | m | 0.100 / 0.150 / 0.110 |" in md.replace("0.1 /", "0.100 /")
+    assert "exactly in 1 of 2 runs" in md
