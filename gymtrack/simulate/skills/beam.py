@@ -9,12 +9,15 @@ from __future__ import annotations
 import numpy as np
 
 from .. import body as B
-from ..motion import DISMOUNT, MOUNT, SKILL, WAIT, WALK
+from ..body import POINT_NAMES
+from ..motion import DISMOUNT, MOUNT, SKILL, WAIT, WALK, smoothstep
 from .choreography import CROUCH_LIGHT, CROUCH_MID, TWO_PI, Choreography
 
 # ====================================================================== balance beam
 BEAM_Z = 1.25
 BEAM_HALF = 2.5
+GRIP_Z = 0.025  #: the palm's middle above the surface it presses on
+_I = {n: i for i, n in enumerate(POINT_NAMES)}
 
 
 def beam_routine(c: Choreography) -> None:
@@ -82,12 +85,7 @@ def beam_routine(c: Choreography) -> None:
             b.absorb(BEAM_Z, 0.12, CROUCH_MID, phase=SKILL)
             b.pose_on_feet(0.5, BEAM_Z, [(1.0, B.posture_angles(B.STAND))], posture=B.STAND, phase=SKILL)
         elif skill == "walkover":
-            d = rng.uniform(1.0, 1.3)
-            pitch_end = b.pitch + TWO_PI
-            end = c.feet_centre((x + h * d, 0.0), BEAM_Z, B.posture_angles(B.STAND), b.yaw, pitch_end)
-            split_hs = np.array([80, -80, 0, 0, 0, 180, 180, 0, 0, 0, 1, 0], float)
-            b.transition(rng.uniform(1.1, 1.5), end, pitch_end=pitch_end, posture=B.ARMS_UP, phase=SKILL, arc=(0.0, 0.0, 0.22),
-                         angle_keys=[(0.3, B.posture_angles(B.ARMS_UP)), (0.5, split_hs), (0.75, split_hs), (1.0, B.posture_angles(B.STAND))])
+            walkover(c, rng.uniform(1.1, 1.5))
         elif skill == "balance":
             t = rng.uniform(1.5, 2.5)
             bal = B.posture_angles(B.BALANCE)
@@ -115,3 +113,64 @@ def beam_routine(c: Choreography) -> None:
     c.salute()
     c.walk_out(c.outside_point(-c.layout.judge_side, rng.uniform(1.5, 2.5)))
     c.pad_to_end(c.outside_point(-c.layout.judge_side, 4.0))
+
+
+
+def _walkover_angles(P: np.ndarray, start: np.ndarray) -> np.ndarray:
+    """(n, A) the walkover's shape by its somersault angle ``P`` (n,) degrees, 0 -> 360: the support
+    (left) leg stays vertical while the trunk goes down to the hands (hip flexion = P, up to 90),
+    the lead (right) leg kicks back and over (split handstand), then stays vertical under the
+    body as it stands up over it (flexion P - 360); arms overhead, feet pointed in the air."""
+    n = P.size
+    a = np.repeat(B.posture_angles(B.STAND)[None], n, 0)
+    up = smoothstep(np.clip((P - 300.0) / 60.0, 0.0, 1.0))  # standing up: back to the stand
+    a[:, 0] = np.minimum(P, 90.0) * (1 - up)
+    a[:, 1] = np.where(P < 180.0, -90.0 * smoothstep(np.clip(P / 120.0, 0.0, 1.0)), np.maximum(P - 360.0, -90.0))
+    a[:, 5] = a[:, 6] = 180.0 * smoothstep(np.clip(P / 60.0, 0.0, 1.0)) * (1 - up)
+    a[:, 7] = -17.0 * smoothstep(np.clip(P / 60.0, 0.0, 1.0)) * (1 - up)  # the hands together on the 10 cm beam
+    a[:, 8] = 0.0
+    a[:, 10] = smoothstep(np.clip(P / 60.0, 0.0, 1.0)) * (1 - up)
+    w = smoothstep(np.clip(P / 30.0, 0.0, 1.0))[:, None]  # from the current pose
+    return start[None] + w * (a - start[None])
+
+
+def walkover(c: Choreography, seconds: float) -> None:
+    """A front walkover on the beam: the hands, then the feet, on the beam the whole way.
+
+    A walkover passes through a split handstand with the hands on the beam: support on the rear
+    foot while the trunk goes down and the lead leg kicks over, on both hands, then on the lead
+    foot as the body stands up (FIG Women's Artistic Gymnastics Code of Points 2022-2024, Balance
+    Beam, acrobatic elements without flight: walkover forward). Each frame's centre puts the
+    current support on the beam: the rear foot's toe where it stood until the palms reach the
+    beam, the palms where they reached it until the lead foot comes down, then that foot's toe.
+    The contact points are where the body reaches the beam, so the handovers are continuous.
+    """
+    b = c.b
+    n = b.frames_for(seconds)
+    pitch = b.pitch + TWO_PI * smoothstep(b._tau(n))
+    a = _walkover_angles(np.degrees(pitch - b.pitch), b.angles)
+    yaw, tw = np.full(n, b.yaw), np.full(n, b.twist)
+    rel, _ = b.body.oriented(a, yaw, pitch, tw)
+    rear, lead = _I["left_toe"], _I["right_toe"]
+    pad = b.body.pad[rear]
+    rel0, _ = b.body.oriented(b.angles[None], [b.yaw], [b.pitch], [b.twist])
+    p_rear = b.centre + rel0[0, rear]
+    p_rear[2] = BEAM_Z + pad
+    c_foot = p_rear[None] - rel[:, rear]
+    palm = b.body.grip_offset(rel)
+    k1 = int(np.argmax((c_foot + palm)[:, 2] <= BEAM_Z + GRIP_Z))  # the hands reach the beam
+    g = c_foot[k1] + palm[k1]
+    g[2] = BEAM_Z + GRIP_Z
+    c_hand = g[None] - palm
+    k_hs = int(np.argmin(np.abs(pitch - (b.pitch + np.pi))))
+    k2 = k_hs + int(np.argmax((c_hand + rel[:, lead])[k_hs:, 2] - pad <= BEAM_Z))  # the lead foot comes down
+    p_lead = c_hand[k2] + rel[k2, lead]
+    p_lead[2] = BEAM_Z + pad
+    c_lead = p_lead[None] - rel[:, lead]
+    k = np.arange(n)[:, None]
+    cen = np.where(k < k1, c_foot, np.where(k < k2, c_hand, c_lead))
+    # the stand at the end: the lowest point on the beam (both feet flat), eased in over the last frames
+    c_end = b.body.centre_on_feet(cen[-1:, :2], BEAM_Z, a[-1:], yaw[-1:], pitch[-1:], tw[-1:])[0]
+    m = max(1, min(n - k2, b.frames_for(0.2)))
+    cen[-m:] += smoothstep(np.arange(1, m + 1) / m)[:, None] * (c_end - cen[-1])[None]
+    b.append(cen, yaw, pitch, tw, a, B.ARMS_UP, SKILL)
