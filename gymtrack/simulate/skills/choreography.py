@@ -14,7 +14,7 @@ import numpy as np
 
 from ...apparatus import Apparatus
 from .. import body as B
-from ..motion import DISMOUNT, LANDING, MOUNT, SALUTE, SKILL, WAIT, WALK, MotionBuilder
+from ..motion import DISMOUNT, LANDING, MOUNT, SALUTE, SKILL, WAIT, WALK, MotionBuilder, smoothstep
 
 TWO_PI = 2 * np.pi
 CROUCH_LIGHT = np.array([35, 35, 3, 55, 55, 40, 40, 8, 10, 0, 0.6, 15], float)
@@ -167,7 +167,12 @@ def lift_to_hang(c: Choreography, grip: np.ndarray, seconds: float) -> None:
     start = b.n
     hang = B.posture_angles(B.ARMS_UP)
     end = c.grip_centre(grip, hang, b.yaw, b.upright_pitch)
-    b.transition(0.4, b.centre + np.array([0, 0, 0.0]), angles_end=hang, posture=B.ARMS_UP, phase=WAIT)
+    # the arms go up with the feet still on the floor (the box centre rises with the hands)
+    n = b.frames_for(0.4)
+    a = b._blend_angles(hang, smoothstep(b._tau(n)))
+    a[:, 10] = 0.0  # feet flat until the coach lifts
+    yaw, pitch, tw = np.full(n, b.yaw), np.full(n, b.pitch), np.full(n, b.twist)
+    b.append(b.body.centre_on_feet(np.repeat(b.centre[None, :2], n, 0), 0.0, a, yaw, pitch, tw), yaw, pitch, tw, a, B.ARMS_UP, WAIT)
     b.transition(seconds, end, pitch_end=b.upright_pitch, angles_end=hang, posture=B.ARMS_UP, phase=MOUNT)
     c.events.append(Event("lift", start, b.n, (float(grip[0]), float(grip[1]))))
 
