@@ -47,21 +47,28 @@ def beam_routine(c: Choreography) -> None:
     def reserve() -> float:  # dismount, landing, salute, and the walk to the nearer end first
         return 6.0 + max(0.0, 1.9 - abs(b.centre[0])) / 0.8
 
+    last = ""
     while c.left > reserve():
         n0 = b.n
         x = b.centre[0]
         h = 1.0 if np.cos(b.yaw) > 0 else -1.0
         room = h * lim - x if h > 0 else x + lim  # metres ahead before the end
         skill = rng.choice(["walk", "leap", "jump", "salto", "walkover", "balance", "turn"], p=[0.22, 0.16, 0.12, 0.14, 0.12, 0.12, 0.12])
-        need = {"walk": 1.0, "leap": 1.6, "jump": 0.4, "salto": 0.0, "walkover": 1.3, "balance": 0.0, "turn": 0.0}[skill]
+        need = {"walk": 1.0, "leap": 1.6, "jump": 0.4, "salto": 0.0, "walkover": 1.3, "balance": 0.0, "turn": 0.0}
         back = skill == "salto"
-        if (not back and room < need) or (back and (lim - abs(x)) < 0.6 and np.sign(x) == -h):
+        if back and (lim - abs(x)) < 0.6 and np.sign(x) == -h:  # no room behind: go on forwards instead
+            skill = "walk" if room >= 1.0 else "turn"
+        elif not back and room < need[skill]:  # no room ahead: turn round
             skill = "turn"
+        if skill == "turn" and last == "turn":  # pivots come one at a time, linked by other elements
+            skill = "walk" if room >= 1.0 else "balance"
+        last = skill
         if skill == "walk":
             d = min(rng.uniform(0.8, 2.0), room)
             b.walk_to((x + h * d, 0.0), rng.uniform(0.5, 0.9), BEAM_Z, SKILL, lateral=0.015)
         elif skill == "turn":
-            b.turn(np.pi * rng.choice([-1.0, 1.0]) * (1.0 if rng.random() < 0.8 else 2.0), rng.uniform(0.9, 1.4), BEAM_Z)
+            full = rng.random() >= 0.8 and room >= 1.6  # a full turn only where the gymnast can go on the same way
+            b.turn(np.pi * rng.choice([-1.0, 1.0]) * (2.0 if full else 1.0), rng.uniform(0.9, 1.4), BEAM_Z)
         elif skill in ("leap", "jump"):
             c.jump_prep(BEAM_Z, 0.25)
             d = rng.uniform(0.9, min(1.5, room)) if skill == "leap" else rng.uniform(0.0, 0.3)
