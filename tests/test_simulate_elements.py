@@ -147,3 +147,26 @@ def test_written_and_read_back(tmp_path):
     assert doc["elements"] == sorted(sim.elements["elements"], key=key)
     kinds = {e["kind"] for e in doc["elements"]}
     assert {"flight", "landing"} <= kinds
+
+
+def test_joint_rotations_follow_the_contract_axis():
+    """Somersault = the angle of H->S in the plane about the normal; twist = the pelvis line about H->S."""
+    from gymtrack.simulate.elements import joint_rotations
+    body = B.BodyModel(1.6)
+    n = 61
+    pitch = np.linspace(0.0, -2 * np.pi, n)  # a back salto facing +x; the beam's normal is +y (the body's left)
+    kp, _ = body.world_points(np.zeros((n, 3)), np.repeat(B.posture_angles(B.LAYOUT)[None], n, 0), np.zeros(n), pitch, np.zeros(n))
+    som, tw = joint_rotations(kp[:, :17], (0, 1, 0))
+    assert np.allclose(som, np.degrees(pitch), atol=1e-6) and np.allclose(tw, 0, atol=1e-6)
+    # a full twist in the layout, upright: the pelvis line turns once about the long axis
+    kp, _ = body.world_points(np.zeros((n, 3)), np.repeat(B.posture_angles(B.LAYOUT)[None], n, 0), np.zeros(n), np.zeros(n),
+                              np.linspace(0, 2 * np.pi, n))
+    som, tw = joint_rotations(kp[:, :17], (0, 1, 0))
+    assert tw[-1] == pytest.approx(360.0) and np.allclose(som, 0, atol=1e-6)
+    # a crouch's trunk lean is somersault by the contract (the body frame stays upright)
+    a = B.posture_angles(B.STAND)
+    lean = np.repeat(a[None], 2, 0)
+    lean[1, 11] = 35.0
+    kp, _ = body.world_points(np.zeros((2, 3)), lean, np.zeros(2), np.zeros(2), np.zeros(2))
+    som, _ = joint_rotations(kp[:, :17], (0, 1, 0))
+    assert som[1] == pytest.approx(35.0, abs=1e-6)
