@@ -170,3 +170,25 @@ def test_joint_rotations_follow_the_contract_axis():
     kp, _ = body.world_points(np.zeros((2, 3)), lean, np.zeros(2), np.zeros(2), np.zeros(2))
     som, _ = joint_rotations(kp[:, :17], (0, 1, 0))
     assert som[1] == pytest.approx(35.0, abs=1e-6)
+
+
+@pytest.mark.parametrize("apparatus,module", [("horizontal_bar", "bars"), ("still_rings", "rings")])
+@pytest.mark.parametrize("saltos", [1, 2])
+def test_flyaway_counts_saltos_from_hang_to_stand(apparatus, module, saltos, monkeypatch):
+    """A flyaway drawn with k saltos is a k-salto dismount by the rules (hang to stand) in the ground truth."""
+    import importlib
+
+    monkeypatch.setattr(importlib.import_module(f"gymtrack.simulate.skills.{module}"), "flyaway_saltos", lambda c: saltos)
+    _, _, _, doc = _routine(apparatus, 4, 20.0)
+    last = [e for e in doc["elements"] if e["kind"] == "flight"][-1]
+    assert abs(last["saltos"]) == saltos
+
+
+def test_flyaway_distribution_is_the_rules():
+    """The double salto is the common flyaway; the triple is rare and never on uneven bars."""
+    from gymtrack.simulate.skills.choreography import FLYAWAY_SALTOS
+
+    for name, (k, p) in FLYAWAY_SALTOS.items():
+        p = dict(zip(k, p))
+        assert max(p, key=p.get) == 2 and p.get(3, 0.0) <= 0.1 and sum(p.values()) == pytest.approx(1.0)
+    assert 3 not in FLYAWAY_SALTOS["uneven_bars"][0]

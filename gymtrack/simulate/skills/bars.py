@@ -10,8 +10,8 @@ import numpy as np
 
 from .. import body as B
 from ..motion import DISMOUNT, MOUNT, OFF_PLANE, SKILL, WAIT, WALK
-from .choreography import (CROUCH_LIGHT, TWO_PI, Choreography, Event, across_yaw, dismount_from_circle, lift_to_hang, pitch_ahead,
-                           support_shape)
+from .choreography import (CROUCH_LIGHT, TWO_PI, Choreography, Event, across_yaw, dismount_from_circle, flyaway_saltos, lift_to_hang,
+                           pitch_ahead, support_shape)
 
 # ====================================================================== horizontal bar and uneven bars
 HIGH_BAR_Z = 2.8
@@ -74,7 +74,7 @@ def _bar_dismount(c: Choreography, grip, yaw: float, d: float, reach: tuple[floa
     c._phase = DISMOUNT
     _giant_to(c, grip, yaw, d, rng.uniform(1.25, 1.45), min_ahead=np.pi, phase=DISMOUNT)
     side = float(np.sign(-d * np.sin(yaw)))  # the centre moves this way in y on the up-swing
-    dismount_from_circle(c, grip, d, side, reach, (0.9, 1.2), int(rng.choice([1, 2])))
+    dismount_from_circle(c, grip, d, side, reach, (0.9, 1.2), flyaway_saltos(c))
     c._phase = SKILL
 
 
