@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import body as B
-from ..motion import DISMOUNT, MOUNT, OFF_PLANE, SKILL, WAIT, WALK
+from ..motion import DISMOUNT, MOUNT, SKILL, WAIT, WALK
 from .choreography import (CROUCH_LIGHT, TWO_PI, Choreography, Event, across_yaw, dismount_from_circle, flyaway_saltos, lift_to_hang,
                            pitch_ahead, support_shape)
 
@@ -190,6 +190,43 @@ def uneven_bars_routine(c: Choreography) -> None:
 # ====================================================================== parallel bars
 PB_Z = 2.0
 PB_HALF = 1.75
+PB_SPACING = 0.47
+RAIL_CLEAR = 0.15  #: metres: a joint's distance from the rails' top and end that clears them (flesh, off-plane drift)
+
+
+def _on_rails(angles: np.ndarray, height: float) -> np.ndarray:
+    """``angles`` with the shoulder abduction that puts the palms on the rails, 0.47 m apart (the
+    shoulders 0.11 H off the middle, the arm to the palm 0.38 H): the hands hold the rails."""
+    a = angles.copy()
+    a[7] = np.degrees(np.arcsin(np.clip((PB_SPACING / 2 - 0.11 * height) / (0.38 * height), -1.0, 1.0)))
+    return a
+
+
+def _dismount_off_the_end(c: Choreography, end_dir: float, up: float) -> None:
+    """A salto off the end of the parallel bars that clears the rails: released above them, the body
+    comes down below the rails' top only past their end (the gymnast flies off the end of the bars,
+    FIG Men's Artistic Gymnastics Code of Points 2022-2024, parallel bars, element group V, dismounts).
+    A flight that would bring a joint down between or onto the rails is flown higher and longer."""
+    b, rng = c.b, c.rng
+    d = float(np.sign(b.pitch - up) or 1.0)
+    n_salto = int(rng.choice([0, 1]))
+    shape = rng.choice([B.TUCK, B.PIKE])
+    nxt = np.ceil(b.pitch / TWO_PI) * TWO_PI if d > 0 else np.floor(b.pitch / TWO_PI) * TWO_PI
+    land_x = float(end_dir * rng.uniform(PB_HALF + 0.5, PB_HALF + 0.8))
+    gain = rng.uniform(0.3, 0.6)
+    y_land = rng.uniform(-0.05, 0.05)
+    n0 = b.n
+    for attempt in range(8):
+        c.flight_to_floor((land_x, y_land), b.centre[2] + gain, (nxt - b.pitch) + d * TWO_PI * n_salto, shape=shape, phase=DISMOUNT)
+        last = b._chunks[-1]
+        pts, _ = b.body.world_points(last["centre"], last["angles"], last["yaw"], last["pitch"], last["twist"])
+        low = pts[:, :17, 2] < PB_Z + RAIL_CLEAR
+        within = np.abs(pts[:, :17, 0]) < PB_HALF + RAIL_CLEAR
+        low[: b.frames_for(0.15), 9:11] = False  # the wrists leave the rails at the release
+        if not (low & within).any() or attempt == 7:
+            return
+        b.truncate(b.n - n0)
+        gain, land_x = gain + 0.1, land_x + end_dir * 0.15
 
 
 def parallel_bars_routine(c: Choreography) -> None:
@@ -206,29 +243,37 @@ def parallel_bars_routine(c: Choreography) -> None:
     c._phase = MOUNT
     c.jump_prep(0.0, 0.3)
     grip = np.array([sx * (PB_HALF - 0.5), 0.0, PB_Z])
-    sup = B.posture_angles(B.SUPPORT)
+    sup, hs, lsit = (_on_rails(B.posture_angles(p), b.body.height) for p in (B.SUPPORT, B.ARMS_UP, B.L_SIT))
     end = c.grip_centre(grip, sup, yaw, b.upright_pitch)
-    b.flight(end, b.flight_frames(b.centre[2], end[2], end[2] + 0.2), b.pitch, angle_keys=[(0.5, CROUCH_LIGHT), (1.0, sup)],
-             posture=B.SUPPORT, phase=MOUNT)
+    # the arms come to support before the hands meet the rails, from above: a jump that would bring
+    # the hands up under a rail's end is jumped higher
+    n0 = b.n
+    for gain in (0.2, 0.3, 0.4, 0.5, 0.6):
+        b.flight(end, b.flight_frames(b.centre[2], end[2], end[2] + gain), b.pitch, angle_keys=[(0.35, CROUCH_LIGHT), (0.75, sup), (1.0, sup)],
+                 posture=B.SUPPORT, phase=MOUNT)
+        last = b._chunks[-1]
+        pts, _ = b.body.world_points(last["centre"], last["angles"], last["yaw"], last["pitch"], last["twist"])
+        under = (np.abs(pts[:-1, 5:11, 0]) <= PB_HALF) & (pts[:-1, 5:11, 2] < PB_Z) & (np.abs(np.abs(pts[:-1, 5:11, 1]) - PB_SPACING / 2) < 0.06)
+        rose = under[:-1] & (pts[1:-1, 5:11, 2] > pts[:-2, 5:11, 2])  # an arm rising under a rail would go through it
+        if not rose.any() or gain == 0.6:
+            break
+        b.truncate(b.n - n0)
     b.hold_grip(grip, 0.4, yaw, sup, B.SUPPORT, MOUNT)
     up = b.upright_pitch
     r_sh = 0.32 * b.body.height  # shoulders to centre in support: the swing's pivot radius
-    off_plane_done = False
     reserve = 7.5
     while c.left > reserve:
-        n0, saved = b.n, (grip.copy(), up, h, off_plane_done)
-        kind = rng.choice(["swings", "handstand", "travel", "l_sit", "salto", "one_rail"], p=[0.3, 0.2, 0.15, 0.1, 0.15, 0.1])
-        if kind == "one_rail" and off_plane_done:
-            kind = "swings"
+        n0, saved = b.n, (grip.copy(), up, h)
+        kind = rng.choice(["swings", "handstand", "travel", "l_sit", "salto"], p=[0.35, 0.2, 0.17, 0.11, 0.17])
         if kind == "swings":
             amps = list(np.linspace(0.5, rng.uniform(1.0, 1.5), int(rng.integers(3, 6))))
-            b.swing(grip, amps + [0.3, 0.0], yaw, B.SUPPORT, SKILL, centre_angle=up, angle_fn=lambda th: support_shape(th, up), radius=r_sh)
+            b.swing(grip, amps + [0.3, 0.0], yaw, B.SUPPORT, SKILL, centre_angle=up, angle_fn=lambda th: support_shape(th, up, sup), radius=r_sh)
         elif kind == "handstand":
             amps = [0.7, 1.3, 2.0]
-            b.swing(grip, amps, yaw, B.SUPPORT, SKILL, centre_angle=up, angle_fn=lambda th: support_shape(th, up), radius=r_sh)
-            b.grip_transition(grip, 0.6, up + np.pi, yaw, B.posture_angles(B.ARMS_UP), B.ARMS_UP, SKILL)
-            b.hold_grip(grip, rng.uniform(1.0, 2.0), yaw, B.posture_angles(B.ARMS_UP), B.ARMS_UP, SKILL)
-            b.swing(grip, [1.5, 0.9, 0.4, 0.0], yaw, B.SUPPORT, SKILL, centre_angle=up, angle_fn=lambda th: support_shape(th, up),
+            b.swing(grip, amps, yaw, B.SUPPORT, SKILL, centre_angle=up, angle_fn=lambda th: support_shape(th, up, sup), radius=r_sh)
+            b.grip_transition(grip, 0.6, up + np.pi, yaw, hs, B.ARMS_UP, SKILL)
+            b.hold_grip(grip, rng.uniform(1.0, 2.0), yaw, hs, B.ARMS_UP, SKILL)
+            b.swing(grip, [1.5, 0.9, 0.4, 0.0], yaw, B.SUPPORT, SKILL, centre_angle=up, angle_fn=lambda th: support_shape(th, up, sup),
                     radius=r_sh)
         elif kind == "travel":
             room = PB_HALF - 0.35 - h * grip[0]
@@ -240,12 +285,12 @@ def parallel_bars_routine(c: Choreography) -> None:
             b.hold_grip(grip, dist / rng.uniform(0.3, 0.5), yaw, sup, B.SUPPORT, SKILL, grip_end=g2)
             grip = g2
         elif kind == "l_sit":
-            b.hold_grip(grip, rng.uniform(1.5, 2.2), yaw, B.posture_angles(B.L_SIT), B.L_SIT, SKILL)
+            b.hold_grip(grip, rng.uniform(1.5, 2.2), yaw, lsit, B.L_SIT, SKILL)
             b.hold_grip(grip, 0.4, yaw, sup, B.SUPPORT, SKILL)
         elif kind == "salto":
             # swing to the front, let go at the turning point, salto on in the same direction,
             # catch in support a little further along
-            b.swing(grip, [0.6, 1.0, 1.3], yaw, B.SUPPORT, SKILL, centre_angle=up, angle_fn=lambda th: support_shape(th, up), radius=r_sh)
+            b.swing(grip, [0.6, 1.0, 1.3], yaw, B.SUPPORT, SKILL, centre_angle=up, angle_fn=lambda th: support_shape(th, up, sup), radius=r_sh)
             step = float(min(0.4, max(PB_HALF - 0.3 - abs(grip[0]), 0.0)))
             g2 = grip + np.array([h * step, 0.0, 0.0])
             pitch_end = up + TWO_PI * float(np.sign(b.pitch - up) or 1.0)
@@ -257,28 +302,20 @@ def parallel_bars_routine(c: Choreography) -> None:
             up = b.upright_pitch
             grip = g2
             b.hold_grip(grip, 0.4, yaw, sup, B.SUPPORT, SKILL)
-        else:  # a moment on one rail: shift outside the plane and back
-            side = rng.choice([-1.0, 1.0])
-            g_side = grip + np.array([0.0, side * rng.uniform(0.35, 0.45), 0.0])
-            b.hold_grip(grip, 0.8, yaw, sup, B.SUPPORT, OFF_PLANE, grip_end=g_side)
-            b.hold_grip(g_side, rng.uniform(1.0, 1.8), yaw, B.posture_angles(B.L_SIT), B.L_SIT, OFF_PLANE)
-            b.hold_grip(g_side, 0.8, yaw, sup, B.SUPPORT, OFF_PLANE, grip_end=grip)
-            off_plane_done = True
         if c.left < reserve:  # ran into the time kept for the dismount: undo
             b.truncate(b.n - n0)
-            grip, up, h, off_plane_done = saved
+            grip, up, h = saved
             break
-    # Dismount: swing to handstand, salto off the end.
+    # Dismount: walk on the hands to the end, swing up, salto off the end.
     c._phase = DISMOUNT
     end_dir = 1.0 if grip[0] >= 0 else -1.0
-    b.swing(grip, [0.7, 1.3, 1.9], yaw, B.SUPPORT, DISMOUNT, centre_angle=up, angle_fn=lambda th: support_shape(th, up), radius=r_sh)
+    g_end = np.array([end_dir * (PB_HALF - 0.35), grip[1], grip[2]])
+    if abs(g_end[0] - grip[0]) > 0.05:
+        b.hold_grip(grip, abs(g_end[0] - grip[0]) / 0.4, yaw, sup, B.SUPPORT, DISMOUNT, grip_end=g_end)
+        grip = g_end
+    b.swing(grip, [0.7, 1.3, 1.9], yaw, B.SUPPORT, DISMOUNT, centre_angle=up, angle_fn=lambda th: support_shape(th, up, sup), radius=r_sh)
     b.truncate(int(0.1 * b.fps))
-    d = float(np.sign(b.pitch - up) or 1.0)
-    land_x = float(end_dir * rng.uniform(PB_HALF + 0.3, PB_HALF + 0.6))
-    n_salto = int(rng.choice([0, 1]))
-    nxt = np.ceil(b.pitch / TWO_PI) * TWO_PI if d > 0 else np.floor(b.pitch / TWO_PI) * TWO_PI
-    c.flight_to_floor((land_x, rng.uniform(-0.15, 0.15)), b.centre[2] + rng.uniform(0.3, 0.6), (nxt - b.pitch) + d * TWO_PI * n_salto,
-                      shape=rng.choice([B.TUCK, B.PIKE]), phase=DISMOUNT)
+    _dismount_off_the_end(c, end_dir, up)
     c.land(0.0)
     c._phase = SKILL
     c.salute()
