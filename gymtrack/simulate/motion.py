@@ -255,7 +255,13 @@ class MotionBuilder(GripPhases):
         ball = lambda r: r[:, ankle, :2] + 0.7 * (r[:, toe, :2] - r[:, ankle, :2])  # noqa: E731 (the metatarsal heads)
         rel0, _ = self.body.oriented(self.angles[None], [self.yaw], [self.pitch], [self.twist])
         rel, _ = self.body.oriented(a, yaw, pitch, tw)
-        xy = (self.centre[:2] + ball(rel0))[None] - ball(rel)  # the ball of the pivot foot stays put
+        xy = (self.centre[:2] + ball(rel0)[0])[None] - ball(rel)  # the ball of the pivot foot stays put
+        # as the free leg comes down (the last fifth) the feet step back under the line the body stood on:
+        # the model stands hip-width, so a half turn about one foot would leave the body 2 hip half-widths aside
+        w = smoothstep(np.clip((tau - 0.8) / 0.2, 0.0, 1.0))[:, None]
+        side = np.array([-np.sin(yaw[-1]), np.cos(yaw[-1])])
+        off = (xy[-1] - self.centre[:2]) @ side
+        xy = xy - w * off * side[None]
         c = self.body.centre_on_feet(xy, support_z, a, yaw, pitch, tw)
         self.record("turn", self.n, self.n + n - 1, degrees=float(np.degrees(yaw_delta)))
         self.append(c, yaw, pitch, tw, a, posture, phase)

@@ -16,6 +16,8 @@ from .choreography import CROUCH_LIGHT, CROUCH_MID, TWO_PI, Choreography
 # ====================================================================== balance beam
 BEAM_Z = 1.25
 BEAM_HALF = 2.5
+ARCH_DEG = 60.0  #: the trunk's arch (back extension) at the walkover's bridge
+MAX_SPLIT_DEG = 190.0  #: the widest split between the legs (a gymnast's over-split)
 GRIP_Z = 0.025  #: the palm's middle above the surface it presses on
 _I = {n: i for i, n in enumerate(POINT_NAMES)}
 
@@ -54,7 +56,7 @@ def beam_routine(c: Choreography) -> None:
         h = 1.0 if np.cos(b.yaw) > 0 else -1.0
         room = h * lim - x if h > 0 else x + lim  # metres ahead before the end
         skill = rng.choice(["walk", "leap", "jump", "salto", "walkover", "balance", "turn"], p=[0.22, 0.16, 0.12, 0.14, 0.12, 0.12, 0.12])
-        need = {"walk": 1.0, "leap": 1.6, "jump": 0.4, "salto": 0.0, "walkover": 1.3, "balance": 0.0, "turn": 0.0}
+        need = {"walk": 1.0, "leap": 1.6, "jump": 0.4, "salto": 0.0, "walkover": 1.6, "balance": 0.0, "turn": 0.0}
         back = skill == "salto"
         if back and (lim - abs(x)) < 0.6 and np.sign(x) == -h:  # no room behind: go on forwards instead
             skill = "walk" if room >= 1.0 else "turn"
@@ -92,7 +94,7 @@ def beam_routine(c: Choreography) -> None:
             b.absorb(BEAM_Z, 0.12, CROUCH_MID, phase=SKILL)
             b.pose_on_feet(0.5, BEAM_Z, [(1.0, B.posture_angles(B.STAND))], posture=B.STAND, phase=SKILL)
         elif skill == "walkover":
-            walkover(c, rng.uniform(1.1, 1.5))
+            walkover(c, rng.uniform(1.8, 2.4))
         elif skill == "balance":
             t = rng.uniform(1.5, 2.5)
             bal = B.posture_angles(B.BALANCE)
@@ -106,6 +108,8 @@ def beam_routine(c: Choreography) -> None:
     h_end = 1.0 if b.centre[0] >= 0 else -1.0
     x_d = h_end * rng.uniform(1.7, 2.1)
     if abs(x_d - b.centre[0]) > 0.05:
+        if np.cos(b.yaw) * (x_d - b.centre[0]) < 0:  # the end is behind: pivot to face it, then walk (legs apart, no turning)
+            b.turn(np.pi * rng.choice([-1.0, 1.0]), rng.uniform(0.9, 1.2), BEAM_Z)
         b.walk_to((x_d, 0.0), rng.uniform(0.8, 1.0), BEAM_Z, SKILL, lateral=0.015)
     face_in = 0.0 if h_end < 0 else np.pi
     b.stand(0.5, BEAM_Z, B.STAND, SKILL, yaw=face_in)
@@ -125,18 +129,24 @@ def beam_routine(c: Choreography) -> None:
 
 def _walkover_angles(P: np.ndarray, start: np.ndarray) -> np.ndarray:
     """(n, A) the walkover's shape by its somersault angle ``P`` (n,) degrees, 0 -> 360: the support
-    (left) leg stays vertical while the trunk goes down to the hands (hip flexion = P, up to 90),
+    (left) leg stays vertical while the trunk goes down to the hands (hip flexion about P),
     the lead (right) leg kicks back and over (split handstand), then stays vertical under the
-    body as it stands up over it (flexion P - 360); arms overhead, feet pointed in the air."""
+    body as it stands up over it (flexion P - 360); the back arched through the bridge; arms overhead, feet pointed in the air."""
     n = P.size
     a = np.repeat(B.posture_angles(B.STAND)[None], n, 0)
     up = smoothstep(np.clip((P - 300.0) / 60.0, 0.0, 1.0))  # standing up: back to the stand
-    a[:, 0] = np.minimum(P, 90.0) * (1 - up)
-    a[:, 1] = np.where(P < 180.0, -90.0 * smoothstep(np.clip(P / 120.0, 0.0, 1.0)), np.maximum(P - 360.0, -90.0))
+    # support leg: nearly vertical while the trunk goes down, leaning 12 deg on as the hands reach
+    # the beam (P ~ 150) some 0.6-0.8 m ahead, back to a 90 deg split by P = 215
+    a[:, 0] = np.interp(P, [0.0, 90.0, 150.0, 215.0, 300.0], [0.0, 88.0, 138.0, 90.0, 90.0]) * (1 - up)
+    kick = np.where(P < 180.0, -90.0 * smoothstep(np.clip(P / 120.0, 0.0, 1.0)), np.maximum(P - 360.0, -90.0))
+    a[:, 1] = np.maximum(kick, a[:, 0] - MAX_SPLIT_DEG)  # the legs never split wider than a gymnast's split
     a[:, 5] = a[:, 6] = 180.0 * smoothstep(np.clip(P / 60.0, 0.0, 1.0)) * (1 - up)
     a[:, 7] = -17.0 * smoothstep(np.clip(P / 60.0, 0.0, 1.0)) * (1 - up)  # the hands together on the 10 cm beam
     a[:, 8] = 0.0
     a[:, 10] = smoothstep(np.clip(P / 60.0, 0.0, 1.0)) * (1 - up)
+    # the back arches over the hands and as the lead foot reaches down (a walkover's bridge), so the
+    # foot lands a short step past the hands
+    a[:, 11] = -ARCH_DEG * np.sin(np.pi * np.clip((P - 160.0) / 160.0, 0.0, 1.0)) ** 2
     w = smoothstep(np.clip(P / 30.0, 0.0, 1.0))[:, None]  # from the current pose
     return start[None] + w * (a - start[None])
 
@@ -154,7 +164,8 @@ def walkover(c: Choreography, seconds: float) -> None:
     """
     b = c.b
     n = b.frames_for(seconds)
-    pitch = b.pitch + TWO_PI * smoothstep(b._tau(n))
+    tau = b._tau(n)
+    pitch = b.pitch + TWO_PI * 0.5 * (tau + smoothstep(tau))  # an even turn over, easing in and out
     a = _walkover_angles(np.degrees(pitch - b.pitch), b.angles)
     yaw, tw = np.full(n, b.yaw), np.full(n, b.twist)
     rel, _ = b.body.oriented(a, yaw, pitch, tw)
