@@ -17,6 +17,8 @@ POMMEL_Z = 1.15
 HORSE_TOP = 1.03  #: the leather between the pommels (1.15 m less the 0.12 m pommels)
 HANDS_Z = HORSE_TOP + 0.025  #: the palms' middle on the leather
 HANDS_HALF = 0.15  #: each hand's palm this far from the grip's middle: inside the 0.35 m-wide horse
+SPLIT_DEG = 78.0  #: scissors: each leg's hip flexion (+/-) about which the split swings: the horse stays between the legs
+SCISSOR_DEG = 15.0
 LEAN_DEG = 12.0  #: the shoulders lean away from the legs over the support
 
 
@@ -26,14 +28,18 @@ def _hands_in(height: float) -> float:
     return float(np.degrees(np.arcsin(np.clip((HANDS_HALF - 0.11 * height) / (0.38 * height), -1.0, 1.0))))
 
 
-def _grip_turn(b, grip, seconds: float, yaw_end: float, pitch_end: float, angles_end, posture: int, phase: int) -> None:
-    """Turn about the hands on the horse (yaw and pitch together, minimum jerk), the palms kept on ``grip``."""
+def _grip_turn(b, grip, seconds: float, yaw_end: float, pitch_end: float, angles_end, posture: int, phase: int,
+               shape_span: tuple[float, float] = (0.0, 1.0)) -> None:
+    """Turn about the hands on the horse (yaw and pitch together, minimum jerk), the palms kept on
+    ``grip``; the body's shape changes over the ``shape_span`` fractions of the phase (the legs
+    open before they come down past the horse, close once they are above it)."""
     n = b.frames_for(seconds)
-    s = smoothstep(b._tau(n))
+    tau = b._tau(n)
+    s = smoothstep(tau)
     yaw = b.yaw + s * (b.yaw + wrap_angle(yaw_end - b.yaw) - b.yaw)
     pitch = b.pitch + s * (pitch_end - b.pitch)
     tw = np.full(n, b.twist)
-    a = b._blend_angles(angles_end, s)
+    a = b._blend_angles(angles_end, smoothstep(np.clip((tau - shape_span[0]) / (shape_span[1] - shape_span[0]), 0.0, 1.0)))
     cen = b.body.centre_on_grip(np.broadcast_to(np.asarray(grip, float), (n, 3)), a, yaw, pitch, tw)
     b.append(cen, yaw, pitch, tw, a, posture, phase)
 
@@ -72,9 +78,9 @@ def pommel_routine(c: Choreography) -> None:
             r = rng.uniform(0.2, 0.32) if kind == "circles" else rng.uniform(0.32, 0.4)
             n = b.frames_for(n_c * period)
             t = np.arange(1, n + 1) / b.fps
-            ph = phi + TWO_PI * t / period
             ramp = np.minimum(t / 0.5, 1.0)
             ramp = ramp * ramp * (3 - 2 * ramp)
+            ph = phi + np.cumsum(TWO_PI / period * ramp ** 2) / b.fps  # the legs rise first, then sweep round
             tilt = np.radians(rng.uniform(72, 82))
             yaw = ph + np.pi
             base = b.upright_pitch
@@ -91,28 +97,23 @@ def pommel_routine(c: Choreography) -> None:
             cen = b.body.centre_on_grip(np.broadcast_to(grip, (n, 3)), ang, yaw_u, pitch, np.full(n, b.twist))
             b.append(cen, yaw_u, pitch, b.twist, ang, B.STRADDLE if kind == "flairs" else B.SUPPORT, SKILL)
             phi = float(ph[-1])
-        else:  # scissors: upright support, legs split across the horse, swinging side to side along it
+        else:  # scissors: upright support facing across the horse, the legs split across it (one each side), scissoring
             n_s = int(rng.integers(3, 6))
             period = rng.uniform(0.8, 1.0)
             up = b.upright_pitch
             grip = np.array([xc, 0.0, HANDS_Z])
-            start = c.grip_centre(grip, sup, b.yaw, up)
-            b.transition(0.5, start, pitch_end=up, angles_end=sup, posture=B.SUPPORT, phase=SKILL)
+            yaw_f = float(np.round((b.yaw - np.pi / 2) / np.pi) * np.pi + np.pi / 2)  # face across the horse
+            sc = np.array([SPLIT_DEG, -SPLIT_DEG, 20, 0, 0, 0, 0, _hands_in(b.body.height), 0, 0, 1, 0], float)
+            _grip_turn(b, grip, 0.6, yaw_f, up, sc, B.SPLIT, SKILL, shape_span=(0.0, 0.4))  # the hands stay on the horse
             n = b.frames_for(n_s * period)
             t = np.arange(1, n + 1) / b.fps
             sw = np.sin(TWO_PI * t / period) * np.minimum(t / 0.4, 1.0)
-            yaw_f = float(np.round((b.yaw - np.pi / 2) / np.pi) * np.pi + np.pi / 2)  # face across the horse
-            sc = np.array([45, -45, 20, 0, 0, 0, 0, _hands_in(b.body.height), 0, 0, 1, 0], float)
             ang = np.repeat(sc[None], n, 0)
-            ang[:, 0] = 45 * sw  # the legs scissor across the horse with the sway
-            ang[:, 1] = -ang[:, 0]
-            yaw_a = np.full(n, yaw_f)
-            # the legs swing from side to side: the centre sways along the horse
-            cen = c.b.body.centre_on_grip(np.broadcast_to(grip, (n, 3)), ang, yaw_a, np.full(n, up), np.zeros(n))
-            w = np.minimum(t / 0.3, 1.0)[:, None]
-            cen = b.centre[None] + w * (cen - b.centre[None])
-            yaw_a = b.yaw + np.minimum(t / 0.3, 1.0) * (yaw_f - b.yaw + 0.0)
-            b.append(cen, yaw_a, up, 0.0, ang, B.SPLIT, SKILL)
+            ang[:, 0] = SPLIT_DEG + SCISSOR_DEG * sw  # the split swings, never closing over the horse
+            ang[:, 1] = -(SPLIT_DEG - SCISSOR_DEG * sw)
+            yaw_a = np.full(n, b.yaw)
+            cen = b.body.centre_on_grip(np.broadcast_to(grip, (n, 3)), ang, yaw_a, np.full(n, up), np.full(n, b.twist))
+            b.append(cen, yaw_a, up, b.twist, ang, B.SPLIT, SKILL)
             phi = float(np.arctan2(np.sin(b.yaw), np.cos(b.yaw))) + np.pi
         if c.left < reserve:  # ran into the time kept for the dismount: undo
             b.truncate(b.n - n0)
@@ -126,7 +127,7 @@ def pommel_routine(c: Choreography) -> None:
     hs[7] = _hands_in(b.body.height)
     pitch_hs = b.upright_pitch + np.pi
     yaw_d = float(np.round((b.yaw - np.pi / 2) / np.pi) * np.pi + np.pi / 2)  # face across the horse
-    _grip_turn(b, grip, rng.uniform(0.8, 1.1), yaw_d, pitch_hs, hs, B.ARMS_UP, DISMOUNT)  # the hands stay on the horse
+    _grip_turn(b, grip, rng.uniform(0.8, 1.1), yaw_d, pitch_hs, hs, B.ARMS_UP, DISMOUNT, shape_span=(0.35, 1.0))  # the hands stay on the horse
     b.hold_grip(grip, rng.uniform(0.3, 0.7), yaw_d, hs, B.ARMS_UP, DISMOUNT)
     side = float(np.sign(np.sin(yaw_d)) or 1.0)  # pitch on past pi: the feet come down on the +yaw side
     c.flight_to_floor((xc + rng.uniform(-0.3, 0.3), side * rng.uniform(0.75, 0.9)), b.centre[2] + rng.uniform(0.05, 0.2),
