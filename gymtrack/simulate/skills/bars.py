@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import body as B
-from ..motion import DISMOUNT, MOUNT, SKILL, WAIT, WALK
+from ..motion import DISMOUNT, MOUNT, SKILL, WAIT, WALK, smoothstep
 from .choreography import (CROUCH_LIGHT, TWO_PI, Choreography, Event, across_yaw, dismount_from_circle, flyaway_saltos, lift_to_hang,
                            pitch_ahead, support_shape)
 
@@ -17,6 +17,24 @@ from .choreography import (CROUCH_LIGHT, TWO_PI, Choreography, Event, across_yaw
 HIGH_BAR_Z = 2.8
 UB_LOW = (-0.75, 1.7)
 UB_HIGH = (0.75, 2.5)
+
+
+def _through_bars(c: Choreography, n0: int) -> bool:
+    """Whether a limb of the frames built since ``n0`` passes through a bar (the palms and wrists,
+    which hold it, apart): a flight that would is flown another way."""
+    b = c.b
+    k = b.n - n0
+    ch = b.build().slice(n0, b.n)
+    pts, _ = b.body.world_points(ch.centre, ch.angles, ch.yaw, ch.pitch, ch.twist)
+    s = np.linspace(0.0, 0.8, 5)[None, None, :, None]  # along each limb, short of its end (a wrist on the bar)
+    i, j = np.array([5, 6, 7, 8, 11, 12, 13, 14, 5, 6]), np.array([7, 8, 9, 10, 13, 14, 15, 16, 11, 12])
+    q = (pts[:, i, None] + s * (pts[:, j, None] - pts[:, i, None])).reshape(k, -1, 3)
+    for bar in c.app.bars:
+        a, e = np.asarray(bar.start, float), np.asarray(bar.end, float)
+        t = np.clip(((q - a) @ (e - a)) / ((e - a) @ (e - a)), 0.0, 1.0)
+        if (np.linalg.norm(q - (a + t[..., None] * (e - a)), axis=-1) <= bar.radius + 0.02).any():
+            return True
+    return False
 
 
 def _cast_to_handstand(c: Choreography, grip, yaw: float) -> None:
@@ -148,12 +166,24 @@ def uneven_bars_routine(c: Choreography) -> None:
     def low_to_high() -> None:
         _cast_to_handstand(c, low, yaw)
         # fall towards the high bar and fly to it (low-to-high transition), catch in hang
-        b.giant(low, 0.2, 1.0, 1.2, yaw, angle_fn=_giant_shape, ramp_in=0.6)
+        th0 = b.pitch
+
+        def pike_past_high(th: np.ndarray) -> np.ndarray:  # the legs pike under the high bar as the body falls towards it
+            a = _giant_shape(th)
+            a[:, 0] = a[:, 1] = 75.0 * smoothstep(np.clip(np.abs(th - th0) / (0.3 * TWO_PI), 0.0, 1.0))
+            return a
+
+        b.giant(low, 0.2, 1.0, 1.2, yaw, angle_fn=pike_past_high, ramp_in=0.6)
         th_g = b.upright_pitch + rng.uniform(-0.3, 0.1)
         end = c.grip_centre(high, arms, yaw, th_g)
-        apex = max(b.centre[2], end[2]) + rng.uniform(0.2, 0.4)
-        b.flight(end, b.flight_frames(b.centre[2], end[2], apex), th_g, angle_keys=[(0.4, B.posture_angles(B.PIKE)), (1.0, arms)],
-                 posture=B.PIKE, phase=SKILL)
+        gain = rng.uniform(0.2, 0.4)
+        n0 = b.n
+        for hold in (0.4, 0.6, 0.75, 0.85, 0.92):  # keep the pike until the legs are past the high bar
+            b.flight(end, b.flight_frames(b.centre[2], end[2], max(b.centre[2], end[2]) + gain), th_g,
+                     angle_keys=[(0.4, B.posture_angles(B.PIKE)), (hold, B.posture_angles(B.PIKE)), (1.0, arms)], posture=B.PIKE, phase=SKILL)
+            if not _through_bars(c, n0) or hold == 0.92:
+                break
+            b.truncate(b.n - n0)
         b.swing(high, [0.8, 0.5], yaw, B.ARMS_UP, SKILL, centre_angle=b.upright_pitch)
         _kip(c, high, yaw)
         _cast_to_handstand(c, high, yaw)
