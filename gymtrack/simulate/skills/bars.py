@@ -17,6 +17,8 @@ from .choreography import (CROUCH_LIGHT, TWO_PI, Choreography, Event, across_yaw
 HIGH_BAR_Z = 2.8
 UB_LOW = (-0.75, 1.7)
 UB_HIGH = (0.75, 2.5)
+UB_PIKE_DEG = 70.0
+UB_ARCH_HIP_DEG, UB_ARCH_TRUNK_DEG = 20.0, 35.0  #: an arch: hip hyperextension and back extension
 
 
 def _through_bars(c: Choreography, n0: int) -> bool:
@@ -60,6 +62,33 @@ def _giant_shape(th: np.ndarray) -> np.ndarray:
     return np.repeat(B.posture_angles(B.ARMS_UP)[None], th.size, 0)
 
 
+def _giant_clear_low_bar(c: Choreography, grip, yaw: float):
+    """The body's shape along a giant on the uneven bars' high bar: a straight body reaches 1.1 x its
+    height past the hands, further than the low bar (1.7 m away), so through the lower half of the
+    circle the gymnast either pikes (up to :data:`UB_PIKE_DEG`) or arches (hips and trunk extended,
+    as far as a gymnast's back allows) round the low bar -- whichever keeps the legs further from it
+    over the giants. Returns ``angle_fn(pitch) -> (n, A)``."""
+    low = np.array([grip[0], UB_LOW[0], UB_LOW[1]])
+
+    def shape(th: np.ndarray) -> np.ndarray:
+        straight = _giant_shape(th)
+        lo, hi = np.cos(np.radians(130.0)), np.cos(np.radians(80.0))  # bending from 130 deg off the hang, fully by 80
+        w = smoothstep(np.clip((np.cos(th) - lo) / (hi - lo), 0.0, 1.0))
+        pike, arch = straight.copy(), straight.copy()
+        pike[:, 0] = pike[:, 1] = UB_PIKE_DEG * w
+        arch[:, 0] = arch[:, 1] = -UB_ARCH_HIP_DEG * w
+        arch[:, 11] = -UB_ARCH_TRUNK_DEG * w
+        n = th.size
+        gap = []
+        for a in (pike, arch):
+            cen = c.b.body.centre_on_grip(np.broadcast_to(np.asarray(grip, float), (n, 3)), a, np.full(n, yaw), th, np.zeros(n))
+            pts, _ = c.b.body.world_points(cen, a, np.full(n, yaw), th, np.zeros(n))
+            gap.append(np.linalg.norm(pts[:, 11:17, 1:] - low[None, None, 1:], axis=-1).min(axis=1))  # hips, knees, ankles
+        return pike if gap[0].min() >= gap[1].min() else arch  # one shape for the whole giant: no jump between them
+
+    return shape
+
+
 def _giant_to(c: Choreography, grip, yaw: float, d: float, rel: float, min_ahead: float = 0.3, phase: int = SKILL,
               omega_top: float | None = None, ramp_out: float = 0.0) -> None:
     """Giants in direction ``d`` up to the pitch ``d * rel`` (mod 2 pi) at least ``min_ahead`` on;
@@ -68,7 +97,8 @@ def _giant_to(c: Choreography, grip, yaw: float, d: float, rel: float, min_ahead
     target = pitch_ahead(b.pitch, d, rel, min_ahead)
     w_top = c.rng.uniform(2.3, 3.2) if omega_top is None else omega_top
     at_top = abs(np.cos(b.pitch) + 1.0) < 0.05
-    b.giant(grip, abs(target - b.pitch) / TWO_PI, d, w_top, yaw, phase=phase, angle_fn=_giant_shape,
+    shape = _giant_clear_low_bar(c, grip, yaw) if c.app.name == "uneven_bars" and grip[2] == UB_HIGH[1] else _giant_shape
+    b.giant(grip, abs(target - b.pitch) / TWO_PI, d, w_top, yaw, phase=phase, angle_fn=shape,
             ramp_in=0.6 if at_top else 0.0, ramp_out=ramp_out)
 
 
