@@ -26,7 +26,7 @@ simulator's exact state, never to a measured skeleton:
 - landing: the choreography never steps after a landing: ``steps`` 0, ``stuck``.
 - hold: the still part (every true joint slower than 0.1 m/s, >= 1 s) of a held pose, extended
   over the slow ends of its neighbours.
-- circle: a run of giants on one grip (the somersault of the body frame: the choreography's own turn) in one direction, one element per full 360 deg of
+- circle: a run of giants on one grip (the contract's somersault, as the flights') in one direction, one element per full 360 deg of
   somersault from the run's start (less :data:`FULL_TURN_TOL_DEG`: a giant from handstand to
   handstand, sampled, stops a degree or two short).
 - turn: a turn on support and on the spot, of at least 90 deg (less 5 deg: :data:`MIN_TURN_DEG`),
@@ -210,13 +210,13 @@ def ground_truth_elements(records: list[dict], yaw: np.ndarray, pitch: np.ndarra
     """The ``gt/elements.json`` document of the target.
 
     records: the motion builder's element records (0-based frames); yaw, pitch, twist: (T,) the
-    target's orientation, radians; keypoints: (T, 17, 3) its true COCO-17 joints (drift included,
+    target's orientation, radians (unused: the contract's rotations are the joints'; kept for the
+    callers); keypoints: (T, 17, 3) its true COCO-17 joints (drift included,
     as written to ``gt/keypoints_3d.csv``); app: the apparatus (its plane's normal is the
     somersault axis).
     """
     ang = body_angles(keypoints)
-    som, tw = joint_rotations(keypoints, app.plane_normal)  # the flights' saltos and twists, by the contract
-    som_frame, _ = rotations(np.asarray(yaw, float), np.asarray(pitch, float), np.asarray(twist, float), app.plane_normal)
+    som, tw = joint_rotations(keypoints, app.plane_normal)  # the contract's somersault and twist
     els: list[dict] = []
     flights = sorted((r["start"], r["end"]) for r in records if r["kind"] == "flight")
     for i, (s, e) in enumerate(flights):
@@ -239,6 +239,6 @@ def ground_truth_elements(records: list[dict], yaw: np.ndarray, pitch: np.ndarra
         a, b = int(runs[i, 0]), int(runs[i, 1])
         if (b - a + 1) / fps >= MIN_HOLD_S - 1e-9:
             els.append(_hold(a, b, fps, ang["inclination"]))
-    els += _circles([r for r in records if r["kind"] == "giant"], som_frame)
+    els += _circles([r for r in records if r["kind"] == "giant"], som)
     return {"track_id": int(track_id), "fps": float(fps), "apparatus": app.name, "source": "ground truth",
             "elements": els, "missing": {"apex_z": NO_COM, "height_gain": NO_COM, "distance": NO_COM}}
