@@ -21,12 +21,13 @@ UB_PIKE_DEG = 70.0
 UB_ARCH_HIP_DEG, UB_ARCH_TRUNK_DEG = 20.0, 35.0  #: an arch: hip hyperextension and back extension
 
 
-def _through_bars(c: Choreography, n0: int) -> bool:
-    """Whether a limb of the frames built since ``n0`` passes through a bar (the palms and wrists,
-    which hold it, apart): a flight that would is flown another way."""
+def _through_bars(c: Choreography, n0: int, clearance: float = 0.02, skip_last: int = 0) -> bool:
+    """Whether a limb of the frames built since ``n0`` (less the last ``skip_last``) passes through a
+    bar, or within ``clearance`` of its surface (the palms and wrists, which hold it, apart): a
+    flight that would is flown another way."""
     b = c.b
-    k = b.n - n0
-    ch = b.build().slice(n0, b.n)
+    k = b.n - n0 - skip_last
+    ch = b.build().slice(n0, n0 + k)
     pts, _ = b.body.world_points(ch.centre, ch.angles, ch.yaw, ch.pitch, ch.twist)
     s = np.linspace(0.0, 0.8, 5)[None, None, :, None]  # along each limb, short of its end (a wrist on the bar)
     i, j = np.array([5, 6, 7, 8, 11, 12, 13, 14, 5, 6]), np.array([7, 8, 9, 10, 13, 14, 15, 16, 11, 12])
@@ -34,7 +35,7 @@ def _through_bars(c: Choreography, n0: int) -> bool:
     for bar in c.app.bars:
         a, e = np.asarray(bar.start, float), np.asarray(bar.end, float)
         t = np.clip(((q - a) @ (e - a)) / ((e - a) @ (e - a)), 0.0, 1.0)
-        if (np.linalg.norm(q - (a + t[..., None] * (e - a)), axis=-1) <= bar.radius + 0.02).any():
+        if (np.linalg.norm(q - (a + t[..., None] * (e - a)), axis=-1) <= bar.radius + clearance).any():
             return True
     return False
 
@@ -306,16 +307,13 @@ def parallel_bars_routine(c: Choreography) -> None:
     sup, hs, lsit = (_on_rails(B.posture_angles(p), b.body.height) for p in (B.SUPPORT, B.ARMS_UP, B.L_SIT))
     end = c.grip_centre(grip, sup, yaw, b.upright_pitch)
     # the arms come to support before the hands meet the rails, from above: a jump that would bring
-    # the hands up under a rail's end is jumped higher
+    # the body near a rail's end on the way up is jumped higher
     n0 = b.n
-    for gain in (0.2, 0.3, 0.4, 0.5, 0.6):
+    for gain in (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7):
         b.flight(end, b.flight_frames(b.centre[2], end[2], end[2] + gain), b.pitch, angle_keys=[(0.35, CROUCH_LIGHT), (0.75, sup), (1.0, sup)],
                  posture=B.SUPPORT, phase=MOUNT)
-        last = b._chunks[-1]
-        pts, _ = b.body.world_points(last["centre"], last["angles"], last["yaw"], last["pitch"], last["twist"])
-        under = (np.abs(pts[:-1, 5:11, 0]) <= PB_HALF) & (pts[:-1, 5:11, 2] < PB_Z) & (np.abs(np.abs(pts[:-1, 5:11, 1]) - PB_SPACING / 2) < 0.06)
-        rose = under[:-1] & (pts[1:-1, 5:11, 2] > pts[:-2, 5:11, 2])  # an arm rising under a rail would go through it
-        if not rose.any() or gain == 0.6:
+        # clear of the rails by the contract's contact distance until the hands come down on them
+        if not _through_bars(c, n0, clearance=0.0, skip_last=2) or gain == 0.7:
             break
         b.truncate(b.n - n0)
     b.hold_grip(grip, 0.4, yaw, sup, B.SUPPORT, MOUNT)
