@@ -67,13 +67,13 @@ def _giant_clear_low_bar(c: Choreography, grip, yaw: float):
     """The body's shape along a giant on the uneven bars' high bar: a straight body reaches 1.1 x its
     height past the hands, further than the low bar (1.7 m away), so through the lower half of the
     circle the gymnast either pikes (up to :data:`UB_PIKE_DEG`) or arches (hips and trunk extended,
-    as far as a gymnast's back allows) round the low bar -- whichever keeps the legs further from it
-    over the giants. Returns ``angle_fn(pitch) -> (n, A)``."""
+    as far as a gymnast's back allows) round the low bar -- the pike where it keeps the legs 8 cm
+    clear of the bar, else whichever keeps them further from it. Returns ``angle_fn(pitch) -> (n, A)``."""
     low = np.array([grip[0], UB_LOW[0], UB_LOW[1]])
 
     def shape(th: np.ndarray) -> np.ndarray:
         straight = _giant_shape(th)
-        lo, hi = np.cos(np.radians(130.0)), np.cos(np.radians(80.0))  # bending from 130 deg off the hang, fully by 80
+        lo, hi = np.cos(np.radians(175.0)), np.cos(np.radians(95.0))  # bending over the slow top of the circle, fully bent below the bar
         w = smoothstep(np.clip((np.cos(th) - lo) / (hi - lo), 0.0, 1.0))
         pike, arch = straight.copy(), straight.copy()
         pike[:, 0] = pike[:, 1] = UB_PIKE_DEG * w
@@ -85,7 +85,8 @@ def _giant_clear_low_bar(c: Choreography, grip, yaw: float):
             cen = c.b.body.centre_on_grip(np.broadcast_to(np.asarray(grip, float), (n, 3)), a, np.full(n, yaw), th, np.zeros(n))
             pts, _ = c.b.body.world_points(cen, a, np.full(n, yaw), th, np.zeros(n))
             gap.append(np.linalg.norm(pts[:, 11:17, 1:] - low[None, None, 1:], axis=-1).min(axis=1))  # hips, knees, ankles
-        return pike if gap[0].min() >= gap[1].min() else arch  # one shape for the whole giant: no jump between them
+        # one shape for the whole giant (no jump between them): the pike where it clears the bar
+        return pike if gap[0].min() >= min(gap[1].min(), 0.08) else arch
 
     return shape
 
