@@ -75,7 +75,6 @@ def pommel_routine(c: Choreography) -> None:
         if kind in ("circles", "flairs"):
             n_c = int(rng.integers(3, 8))
             period = rng.uniform(0.9, 1.1)
-            r = rng.uniform(0.2, 0.32) if kind == "circles" else rng.uniform(0.32, 0.4)
             n = b.frames_for(n_c * period)
             t = np.arange(1, n + 1) / b.fps
             ramp = np.minimum(t / 0.5, 1.0)
