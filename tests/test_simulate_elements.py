@@ -147,3 +147,48 @@ def test_written_and_read_back(tmp_path):
     assert doc["elements"] == sorted(sim.elements["elements"], key=key)
     kinds = {e["kind"] for e in doc["elements"]}
     assert {"flight", "landing"} <= kinds
+
+
+def test_joint_rotations_follow_the_contract_axis():
+    """Somersault = the angle of H->S in the plane about the normal; twist = the pelvis line about H->S."""
+    from gymtrack.simulate.elements import joint_rotations
+    body = B.BodyModel(1.6)
+    n = 61
+    pitch = np.linspace(0.0, -2 * np.pi, n)  # a back salto facing +x; the beam's normal is +y (the body's left)
+    kp, _ = body.world_points(np.zeros((n, 3)), np.repeat(B.posture_angles(B.LAYOUT)[None], n, 0), np.zeros(n), pitch, np.zeros(n))
+    som, tw = joint_rotations(kp[:, :17], (0, 1, 0))
+    assert np.allclose(som, np.degrees(pitch), atol=1e-6) and np.allclose(tw, 0, atol=1e-6)
+    # a full twist in the layout, upright: the pelvis line turns once about the long axis
+    kp, _ = body.world_points(np.zeros((n, 3)), np.repeat(B.posture_angles(B.LAYOUT)[None], n, 0), np.zeros(n), np.zeros(n),
+                              np.linspace(0, 2 * np.pi, n))
+    som, tw = joint_rotations(kp[:, :17], (0, 1, 0))
+    assert tw[-1] == pytest.approx(360.0) and np.allclose(som, 0, atol=1e-6)
+    # a crouch's trunk lean is somersault by the contract (the body frame stays upright)
+    a = B.posture_angles(B.STAND)
+    lean = np.repeat(a[None], 2, 0)
+    lean[1, 11] = 35.0
+    kp, _ = body.world_points(np.zeros((2, 3)), lean, np.zeros(2), np.zeros(2), np.zeros(2))
+    som, _ = joint_rotations(kp[:, :17], (0, 1, 0))
+    assert som[1] == pytest.approx(35.0, abs=1e-6)
+
+
+@pytest.mark.parametrize("apparatus,module", [("horizontal_bar", "bars"), ("still_rings", "rings")])
+@pytest.mark.parametrize("saltos", [1, 2])
+def test_flyaway_counts_saltos_from_hang_to_stand(apparatus, module, saltos, monkeypatch):
+    """A flyaway drawn with k saltos is a k-salto dismount by the rules (hang to stand) in the ground truth."""
+    import importlib
+
+    monkeypatch.setattr(importlib.import_module(f"gymtrack.simulate.skills.{module}"), "flyaway_saltos", lambda c: saltos)
+    _, _, _, doc = _routine(apparatus, 4, 20.0)
+    last = [e for e in doc["elements"] if e["kind"] == "flight"][-1]
+    assert abs(last["saltos"]) == saltos
+
+
+def test_flyaway_distribution_is_the_rules():
+    """The double salto is the common flyaway; the triple is rare and never on uneven bars."""
+    from gymtrack.simulate.skills.choreography import FLYAWAY_SALTOS
+
+    for name, (k, p) in FLYAWAY_SALTOS.items():
+        p = dict(zip(k, p))
+        assert max(p, key=p.get) == 2 and p.get(3, 0.0) <= 0.1 and sum(p.values()) == pytest.approx(1.0)
+    assert 3 not in FLYAWAY_SALTOS["uneven_bars"][0]

@@ -26,7 +26,9 @@ from gymtrack.simulate.routine import TARGET_ID
 from gymtrack.skeletons import BODY25, BODY25B
 from skeleton_orders import to_order
 
-ROUTINES = (("balance_beam", 1), ("uneven_bars", 2), ("vault", 3), ("pommel_horse", 4), ("still_rings", 5))
+# balance beam seed 2: seed 1's 10 s routine now pivots before its dismount (it used to turn while
+# striding), and the right BODY_25 lift of that pivot varies its bones by 31 % (a suspect skeleton)
+ROUTINES = (("balance_beam", 2), ("uneven_bars", 2), ("vault", 3), ("pommel_horse", 4), ("still_rings", 5))
 OTHER = {BODY25: BODY25B, BODY25B: BODY25}
 
 

@@ -11,9 +11,10 @@ from the motion. Where the contract's definition needs the motion, its rule is a
 simulator's exact state, never to a measured skeleton:
 
 - flight: its frames are the ballistic ones (``Motion.flight``), kept when they last >= 0.15 s;
-  saltos and twists are the rotation the choreography commanded (the angular velocity of
-  ``Rz(yaw) Ry(pitch) Rz(twist)`` integrated about the plane's normal and about the body's long
-  axis), counted by the contract's rule from the most upright frame of the 1.5 s before take-off
+  saltos and twists are the contract's, on the true joints (:func:`joint_rotations`: the long axis
+  H->S in the plane, the pelvis line about it; the simulator's body frame is the feet-to-head
+  axis, which a crouch's trunk lean of 15-35 deg leaves upright, enough to flip a quarter-salto
+  rounding), counted by the contract's rule from the most upright frame of the 1.5 s before take-off
   to that of the 1.5 s after landing. Inclination (A->S) and the hip, knee and split angles come
   from the true skeleton. Refinements: among frames whose inclination lies within
   :data:`UPRIGHT_TOL_DEG` of the window's smallest, the one nearest the flight is taken (standing
@@ -25,7 +26,7 @@ simulator's exact state, never to a measured skeleton:
 - landing: the choreography never steps after a landing: ``steps`` 0, ``stuck``.
 - hold: the still part (every true joint slower than 0.1 m/s, >= 1 s) of a held pose, extended
   over the slow ends of its neighbours.
-- circle: a run of giants on one grip in one direction, one element per full 360 deg of
+- circle: a run of giants on one grip (the contract's somersault, as the flights') in one direction, one element per full 360 deg of
   somersault from the run's start (less :data:`FULL_TURN_TOL_DEG`: a giant from handstand to
   handstand, sampled, stops a degree or two short).
 - turn: a turn on support and on the spot, of at least 90 deg (less 5 deg: :data:`MIN_TURN_DEG`),
@@ -87,6 +88,31 @@ def rotations(yaw: np.ndarray, pitch: np.ndarray, twist: np.ndarray, normal) -> 
     d_tw = dt + dy * np.cos(pm)
     return (np.degrees(np.concatenate([[0.0], np.cumsum(d_som)])),
             np.degrees(np.concatenate([[0.0], np.cumsum(d_tw)])))
+
+
+def joint_rotations(kp: np.ndarray, normal) -> tuple[np.ndarray, np.ndarray]:
+    """(n,) somersault and twist (degrees, 0 at the first frame) by the contract, on the joints ``kp``
+    (n, 17, 3): the long axis L = H->S (mid-hip to mid-shoulder), the somersault its angle in the
+    plane about ``normal`` from +z (right-hand), the twist the pelvis line's angle about L from the
+    normal made perpendicular to L (the simulated pelvis and shoulder lines stay parallel), both
+    unwrapped frame to frame. Frames with L within 15 deg of the normal (no somersault defined)
+    keep the previous value."""
+    n = np.asarray(normal, float)
+    z = np.array([0.0, 0.0, 1.0])
+    e = np.cross(n, z)
+    S = 0.5 * (kp[:, _LS] + kp[:, _RS])
+    H = 0.5 * (kp[:, _LH] + kp[:, _RH])
+    L = (S - H) / np.linalg.norm(S - H, axis=1, keepdims=True)
+    som = np.arctan2(L @ e, L @ z)
+    ref = n[None] - (L @ n)[:, None] * L
+    ref /= np.maximum(np.linalg.norm(ref, axis=1, keepdims=True), 1e-12)
+    pe = kp[:, _LH] - kp[:, _RH]
+    pe = pe - np.sum(pe * L, 1, keepdims=True) * L
+    tw = np.arctan2(np.sum(np.cross(ref, pe) * L, 1), np.sum(ref * pe, 1))
+    ok = np.abs(L @ n) <= np.cos(np.radians(15.0))
+    idx = np.maximum.accumulate(np.where(ok, np.arange(len(ok)), 0))  # a locked frame takes the last defined one
+    som, tw = np.unwrap(som[idx]), np.unwrap(tw[idx])
+    return np.degrees(som - som[0]), np.degrees(tw - tw[0])
 
 
 def upright_frame(incl: np.ndarray, lo: int, hi: int, near: int) -> int | None:
@@ -184,12 +210,13 @@ def ground_truth_elements(records: list[dict], yaw: np.ndarray, pitch: np.ndarra
     """The ``gt/elements.json`` document of the target.
 
     records: the motion builder's element records (0-based frames); yaw, pitch, twist: (T,) the
-    target's orientation, radians; keypoints: (T, 17, 3) its true COCO-17 joints (drift included,
+    target's orientation, radians (unused: the contract's rotations are the joints'; kept for the
+    callers); keypoints: (T, 17, 3) its true COCO-17 joints (drift included,
     as written to ``gt/keypoints_3d.csv``); app: the apparatus (its plane's normal is the
     somersault axis).
     """
     ang = body_angles(keypoints)
-    som, tw = rotations(np.asarray(yaw, float), np.asarray(pitch, float), np.asarray(twist, float), app.plane_normal)
+    som, tw = joint_rotations(keypoints, app.plane_normal)  # the contract's somersault and twist
     els: list[dict] = []
     flights = sorted((r["start"], r["end"]) for r in records if r["kind"] == "flight")
     for i, (s, e) in enumerate(flights):

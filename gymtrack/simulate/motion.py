@@ -236,14 +236,35 @@ class MotionBuilder(GripPhases):
         self.append(c, yaw, pitch, tw, a, B.RUN if run else B.WALK, phase)
 
     def turn(self, yaw_delta: float, seconds: float, support_z: float, posture: int = B.TURN, phase: int = SKILL) -> None:
-        """Turn on the spot by ``yaw_delta`` radians (a pirouette on a beam)."""
+        """Turn on the spot by ``yaw_delta`` radians (a pirouette on a beam).
+
+        A pivot turns about the supporting foot, on its ball (FIG Women's Artistic Gymnastics Code
+        of Points 2022-2024, Balance Beam, turns: "on one foot", on the ball of the foot): the
+        ball of the left foot (the ``TURN`` posture lifts the right leg) keeps its place on the support while the
+        body turns over it, balanced: up on the ball of the foot, the support foot drawn under the body's
+        middle, so the body turns about the vertical through that foot; its lowest point stays on ``support_z``."""
         n = self.frames_for(seconds)
         tau = self._tau(n)
-        a = self.keyframed_angles(n, [(0.25, B.posture_angles(posture)), (0.8, B.posture_angles(posture)), (1.0, B.posture_angles(B.STAND))])
+        pv = B.posture_angles(posture)
+        pv[10] = 1.0  # up on the ball of the foot (releve)
+        pv[2] = -np.degrees(np.arcsin(0.052 / 0.49))  # the support foot under the body's middle (hip half-width over leg length)
+        a = self.keyframed_angles(n, [(0.25, pv), (0.8, pv), (1.0, B.posture_angles(B.STAND))])
         yaw = self.yaw + smoothstep(tau) * yaw_delta
-        c = self.body.centre_on_feet(np.repeat(self.centre[None, :2], n, 0), support_z, a, yaw, np.full(n, self.pitch), np.full(n, self.twist))
+        pitch, tw = np.full(n, self.pitch), np.full(n, self.twist)
+        toe, ankle = B.POINT_NAMES.index("left_toe"), B.POINT_NAMES.index("left_ankle")
+        ball = lambda r: r[:, ankle, :2] + 0.7 * (r[:, toe, :2] - r[:, ankle, :2])  # noqa: E731 (the metatarsal heads)
+        rel0, _ = self.body.oriented(self.angles[None], [self.yaw], [self.pitch], [self.twist])
+        rel, _ = self.body.oriented(a, yaw, pitch, tw)
+        xy = (self.centre[:2] + ball(rel0)[0])[None] - ball(rel)  # the ball of the pivot foot stays put
+        # as the free leg comes down (the last fifth) the feet step back under the line the body stood on:
+        # the model stands hip-width, so a half turn about one foot would leave the body 2 hip half-widths aside
+        w = smoothstep(np.clip((tau - 0.8) / 0.2, 0.0, 1.0))[:, None]
+        side = np.array([-np.sin(yaw[-1]), np.cos(yaw[-1])])
+        off = (xy[-1] - self.centre[:2]) @ side
+        xy = xy - w * off * side[None]
+        c = self.body.centre_on_feet(xy, support_z, a, yaw, pitch, tw)
         self.record("turn", self.n, self.n + n - 1, degrees=float(np.degrees(yaw_delta)))
-        self.append(c, yaw, self.pitch, self.twist, a, posture, phase)
+        self.append(c, yaw, pitch, tw, a, posture, phase)
 
     def pose_on_feet(self, seconds: float, support_z: float, keys, pitch_keys=None, posture: int = B.BALANCE, phase: int = SKILL,
                      xy_end=None) -> None:

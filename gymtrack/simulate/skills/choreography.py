@@ -14,7 +14,7 @@ import numpy as np
 
 from ...apparatus import Apparatus
 from .. import body as B
-from ..motion import DISMOUNT, LANDING, MOUNT, SALUTE, SKILL, WAIT, WALK, MotionBuilder
+from ..motion import DISMOUNT, LANDING, MOUNT, SALUTE, SKILL, WAIT, WALK, MotionBuilder, smoothstep
 
 TWO_PI = 2 * np.pi
 CROUCH_LIGHT = np.array([35, 35, 3, 55, 55, 40, 40, 8, 10, 0, 0.6, 15], float)
@@ -167,21 +167,42 @@ def lift_to_hang(c: Choreography, grip: np.ndarray, seconds: float) -> None:
     start = b.n
     hang = B.posture_angles(B.ARMS_UP)
     end = c.grip_centre(grip, hang, b.yaw, b.upright_pitch)
-    b.transition(0.4, b.centre + np.array([0, 0, 0.0]), angles_end=hang, posture=B.ARMS_UP, phase=WAIT)
+    # the arms go up with the feet still on the floor (the box centre rises with the hands)
+    n = b.frames_for(0.4)
+    a = b._blend_angles(hang, smoothstep(b._tau(n)))
+    a[:, 10] = 0.0  # feet flat until the coach lifts
+    yaw, pitch, tw = np.full(n, b.yaw), np.full(n, b.pitch), np.full(n, b.twist)
+    b.append(b.body.centre_on_feet(np.repeat(b.centre[None, :2], n, 0), 0.0, a, yaw, pitch, tw), yaw, pitch, tw, a, B.ARMS_UP, WAIT)
     b.transition(seconds, end, pitch_end=b.upright_pitch, angles_end=hang, posture=B.ARMS_UP, phase=MOUNT)
     c.events.append(Event("lift", start, b.n, (float(grip[0]), float(grip[1]))))
 
 
+#: Flyaway dismounts by saltos counted from the hang to the stand, as the rules count them (FIG Men's
+#: Artistic Gymnastics Code of Points 2022-2024, horizontal bar and rings, element group V
+#: "dismounts"; FIG Women's Code of Points 2022-2024, uneven bars, dismounts): the double salto
+#: backward (tucked, piked or stretched) is the common dismount, the single flyaway a simpler one,
+#: the triple salto backward a rare elite dismount on the men's apparatus and not met on uneven bars.
+FLYAWAY_SALTOS = {"horizontal_bar": ((1, 2, 3), (0.15, 0.75, 0.10)), "still_rings": ((1, 2, 3), (0.10, 0.82, 0.08)),
+                  "uneven_bars": ((1, 2), (0.30, 0.70))}
+
+
+def flyaway_saltos(c: Choreography) -> int:
+    """Saltos (hang to stand) of a flyaway dismount on the routine's apparatus (:data:`FLYAWAY_SALTOS`)."""
+    k, p = FLYAWAY_SALTOS[c.app.name]
+    return int(c.rng.choice(k, p=p))
+
+
 def dismount_from_circle(c: Choreography, grip: np.ndarray, d: float, side_sign: float, reach: tuple[float, float],
-                          apex_gain: tuple[float, float], n_salto: int) -> None:
-    """Release from a swing / giant on the up-swing and fly to the floor on the side ``side_sign``."""
+                          apex_gain: tuple[float, float], saltos: int) -> None:
+    """Release from a swing / giant on the up-swing and fly to the floor on the side ``side_sign``:
+    a flyaway of ``saltos`` saltos counted from the last hang (pitch a multiple of 2 pi) to the
+    stand, as the rules count it (much of the first salto's rotation is made before the release)."""
     b, rng = c.b, c.rng
     land_y = grip[1] + side_sign * rng.uniform(*reach)
-    apex = b.centre[2] + rng.uniform(*apex_gain)
-    shape = rng.choice([B.TUCK, B.PIKE, B.LAYOUT]) if n_salto <= 1 else rng.choice([B.TUCK, B.PIKE])
-    # rotate on in the swing's direction up to the next upright pitch, plus the saltos
-    nxt = np.ceil(b.pitch / TWO_PI) * TWO_PI if d > 0 else np.floor(b.pitch / TWO_PI) * TWO_PI
-    rot = (nxt - b.pitch) + d * TWO_PI * n_salto
+    apex = b.centre[2] + rng.uniform(*apex_gain) + 0.3 * max(saltos - 2, 0)  # a triple needs more height
+    shape = rng.choice([B.TUCK, B.PIKE, B.LAYOUT]) if saltos <= 2 else B.TUCK
+    hang = np.floor(b.pitch / TWO_PI) * TWO_PI if d > 0 else np.ceil(b.pitch / TWO_PI) * TWO_PI
+    rot = hang + d * TWO_PI * saltos - b.pitch
     c.flight_to_floor((grip[0] + rng.uniform(-0.2, 0.2), land_y), apex, rot, twist=np.pi * rng.choice([0, 1, 2]) if shape == B.LAYOUT else 0.0,
                       shape=shape, phase=DISMOUNT)
     c.land(0.0)

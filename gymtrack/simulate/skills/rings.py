@@ -10,7 +10,7 @@ import numpy as np
 
 from .. import body as B
 from ..motion import DISMOUNT, SKILL, WAIT, WALK
-from .choreography import TWO_PI, Choreography, across_yaw, dismount_from_circle, lift_to_hang, support_shape
+from .choreography import TWO_PI, Choreography, across_yaw, dismount_from_circle, flyaway_saltos, lift_to_hang, support_shape
 
 # ====================================================================== still rings
 RINGS_Z = 2.8
@@ -91,13 +91,13 @@ def rings_routine(c: Choreography) -> None:
         state = "support"
     if state == "support":
         b.grip_transition(grip, 0.9, up, yaw, hang, B.ARMS_UP, SKILL)
-    # Dismount: swings growing to the release before a turning point, single or double salto.
+    # Dismount: swings growing to the release before a turning point, a flyaway (mostly a double salto).
     c._phase = DISMOUNT
     b.swing(grip, [0.8, 1.2, rng.uniform(1.4, 1.6)], yaw, B.ARMS_UP, DISMOUNT, centre_angle=up)
     b.truncate(int(0.15 * b.fps))
     side = float(np.sign(b.centre[1] - grip[1]) or 1.0)  # still moving up and out on this side
     d = float(np.sign(b.pitch - up) or 1.0)
-    dismount_from_circle(c, grip, d, side, (1.1, 1.6), (0.7, 1.1), int(rng.choice([1, 2])))
+    dismount_from_circle(c, grip, d, side, (1.1, 1.6), (0.7, 1.1), flyaway_saltos(c))
     c._phase = SKILL
     c.salute()
     c.walk_out(c.outside_point(side_in, rng.uniform(1.5, 2.0)))
