@@ -83,7 +83,14 @@ def test_pose2sim_trial_info_track_pose(project, tmp_path):
     assert {"head", "neck", "left_big_toe"} <= set(p3.skeleton.joints)  # BODY_25B's own joints, named right
     k = int(np.flatnonzero(sim.person_id == sim.target_id)[0])
     e = target_pose_error(p3.frame, p3.xyz, p3.skeleton.joints, sim.frames, sim.keypoints[k], COCO17.joints, sim.frames)
-    assert e.mpjpe < 60 and e.pose_share > 0.75  # mm (47 and 0.82 here): the joints named right lie where the truth's do
+    assert e.pose_share > 0.75
+    # the joints named right lie where the truth's do: the median frame's error (a misread order is off in
+    # every frame; a frame whose target is another person -- an identification error, not a reading one --
+    # must not decide this)
+    J, at = list(p3.skeleton.joints), {f: i for i, f in enumerate(sim.frames)}
+    x = p3.xyz[:, [J.index(j) for j in COCO17.joints]]
+    g = sim.keypoints[k][[at[f] for f in p3.frame]]
+    assert np.median(np.nanmean(np.linalg.norm(x - g, axis=-1), axis=1)) < 0.06
 
 
 def test_pose_without_target_or_poses_exits_with_the_reason(project, tmp_path):
