@@ -8,7 +8,7 @@ choices as plain arguments, so no stage tests a mode's name. :data:`RECIPES` nam
   opposite pairs);
 * ``triangulation`` and ``plane``: its ablation (Table 4): no plane stage, or every segment to it;
 * ``cascade+``: the cascade and every ingredient beyond the paper (the floor hypothesis, the
-  floor's ghost test, Eq. 4 on the tracklet's mean, motion links, the image-motion tracker at low
+  floor's ghost test, Eq. 4 on the tracklet's mean, the image-motion tracker at low
   frame rates, duplicate exclusion, the older track kept, Eq. 12 over the best-observed estimates,
   one view alone only inside the performance space, the shorter end-box hold; ray/plane fusion and
   online plane refinement where the scene asks for them).
@@ -47,8 +47,6 @@ class Method:
         dropped as wrong pairs (:func:`gymtrack.tracking.floor.drop_floor_ghosts`).
     fusion: two-view clusters fused with the plane by their uncertainty
         (:mod:`gymtrack.tracking.fusion`), where the scene asks for it (``params.fuse_plane``).
-    motion_link: a view's new 2D track continues the 3D track it lost there when it lies at the
-        track's projected prediction (:mod:`gymtrack.tracking.motion_link`).
     keep_older: a track born beside an older one continues as the older one
         (:meth:`gymtrack.tracking.linking.WindowLinker.step`).
     exclusion: reported points superseded by a later window or within 0.5 m of an older track
@@ -71,7 +69,6 @@ class Method:
     floor: bool = False
     ghost_test: bool = False
     fusion: bool = False
-    motion_link: bool = False
     keep_older: bool = False
     exclusion: bool = False
     best_estimates: bool = False
@@ -106,7 +103,7 @@ RECIPES: dict[str, Method] = {
     "triangulation": Method(plane="none", name="triangulation"),
     "plane": Method(plane="all", name="plane"),
     "cascade+": Method(image_motion=True, outliers_at_mean=True, floor=True, ghost_test=True, fusion=True,
-                       motion_link=True, keep_older=True, exclusion=True, best_estimates=True, solo_inside=True,
+                       keep_older=True, exclusion=True, best_estimates=True, solo_inside=True,
                        refine_plane=True, hold_seconds=0.2, handover=True, name="cascade+"),
 }
 MODES: tuple[str, ...] = tuple(RECIPES)

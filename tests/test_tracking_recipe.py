@@ -179,13 +179,6 @@ def test_image_motion_joins_a_views_boxes_at_a_low_frame_rate_only(rings, beam_3
     assert _same(_run(rings, PLUS, "rings"), _run(rings, PLUS.without("image_motion"), "rings"))  # 30 fps: the IoU tracker
 
 
-def test_motion_link_continues_3d_tracks_with_a_views_new_2d_track(beam_3fps):
-    on, off = _run(beam_3fps, PLUS, "beam"), _run(beam_3fps, PLUS.without("motion_link"), "beam")
-    assert on.summary["links_3d_motion"] > 0 and "links_3d_motion" not in off.summary
-    # the renamed 2D tracks are longer: fewer segments too short for a window
-    assert off.summary["segments_dropped_short"] > on.summary["segments_dropped_short"]
-
-
 def test_hold_seconds_holds_no_end_box_at_a_low_frame_rate(rings, beam_3fps):
     on, off = _run(beam_3fps, PLUS, "beam"), _run(beam_3fps, PLUS.without("hold_seconds"), "beam")
     assert Tracker(*beam_3fps[:2], PLUS).hold == 0 and Tracker(*beam_3fps[:2], PLUS.without("hold_seconds")).hold == 2

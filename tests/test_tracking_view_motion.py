@@ -79,16 +79,6 @@ def test_lost_tracks_are_counted_and_views_never_mix():
     assert t.counts["tracks_2d_lost"] == 2 and t.counts["tracks_2d_started"] == 3 and len(t) == 1
 
 
-def test_rename_continues_the_old_id():
-    t = MotionIoUTracker(fps=2.0)
-    a = t.update(0, np.array([0]), np.array([[100.0, 100, 40, 100]]))
-    b = t.update(1, np.array([0]), np.array([[900.0, 100, 40, 100]]))  # too far: a new track
-    assert b[0] != a[0]
-    t.rename(b, a)
-    c = t.update(2, np.array([0]), np.array([[905.0, 100, 40, 100]]))
-    assert c[0] == a[0] and len(t) == 1
-
-
 @pytest.mark.parametrize("kw", [dict(fps=0.0), dict(fps=2.0, speed=-1.0), dict(fps=2.0, noise=0.0),
                                 dict(fps=2.0, smoothing=0.0), dict(fps=2.0, iou_threshold=1.5),
                                 dict(fps=2.0, max_age=-1), dict(fps=float("nan"))])

@@ -230,7 +230,7 @@ def demo(
         "Triangulating two opposite views is ill-conditioned along the line between the cameras; the cascade "
         "intersects their rays with the gymnast's plane instead (paper Section III-C). Its error grows with the "
         "gymnast's distance from the plane (try other --seed values). cascade+, the default mode, goes beyond the "
-        "paper: people on the floor, motion links, duplicates left out (README, 'Beyond the paper')."
+        "paper: people on the floor, duplicates left out (README, 'Beyond the paper')."
     )
     if out is not None:
         console.print(f"routine and results written to [bold]{out}[/]")

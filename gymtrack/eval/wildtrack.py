@@ -50,8 +50,7 @@ __all__ = ["WildtrackSetup", "noisy_detections", "wildtrack_scene", "run_wildtra
 DEFAULT_PATH = DEFAULT_CONFIG.wildtrack
 FRAME_STEP = 5  # annotated every 5th video frame
 #: the tracker's counters reported per mode where it has them (cascade+)
-LINK_COUNTS = ("links_2d_overlap", "links_2d_motion", "tracks_2d_started", "links_3d_motion", "new_2d_tracks_unlinked",
-               "points_superseded", "points_suppressed")
+LINK_COUNTS = ("links_2d_overlap", "links_2d_motion", "tracks_2d_started", "points_superseded", "points_suppressed")
 
 
 @dataclass(frozen=True)
@@ -201,8 +200,7 @@ def wildtrack_markdown(res: dict) -> str:
         if "links_2d_motion" in r:
             lines += ["", f"{mode}: the per-view tracker made {r['links_2d_motion']} links by predicted motion whose boxes do "
                       f"not overlap (the IoU tracker could not make them; {r['links_2d_overlap']} more that overlap) and started "
-                      f"{r['tracks_2d_started']} 2D tracks; {r['links_3d_motion']} new 2D tracks continued a 3D track by its "
-                      f"projected motion, {r['new_2d_tracks_unlinked']} could not be linked; {r['points_superseded']} points "
+                      f"{r['tracks_2d_started']} 2D tracks; {r['points_superseded']} points "
                       f"superseded by a later window and {r['points_suppressed']} within 0.5 m of an older track left out."]
     lines += [
         "",

@@ -214,9 +214,6 @@ class WindowLinker:
         self.prev_2d = np.zeros(0, np.int64)
         self.prev_seen = np.zeros(0, np.int64)  # 2D tracks of the previous window's segments
         self._prev_first_new = 0  # the first track id the previous window started (younger ids: born there)
-        # :func:`tracklet_ends` of ``prev``'s rows when the motion link computed them
-        # (the tracker hands them over after each step; None: computed here)
-        self.prev_ends: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
     def __len__(self) -> int:
         """Stored items: the previous window's (tracklet, frame) cells and the tracks' entries."""
@@ -231,7 +228,6 @@ class WindowLinker:
     def break_chain(self) -> None:
         """The next window does not follow on the last one (a pause jumped over)."""
         self.prev = None
-        self.prev_ends = None
 
     def may_continue_alone(self, track2d: np.ndarray) -> np.ndarray:
         """(n,) bool: the 2D tracks (n,) that may continue a 3D track on the plane from one view:
@@ -270,7 +266,7 @@ class WindowLinker:
         self.prev_seen = track2d
         self._prev_first_new = first_new
         self._end_tracks(cur)
-        self.prev, self.prev_ends = cur, None
+        self.prev = cur
         return cur
 
     def _link(self, cur: WindowTracklets3D, solo: np.ndarray) -> np.ndarray:
@@ -346,10 +342,7 @@ class WindowLinker:
         gone = [k for k in self.track_last if k not in live]
         if gone:  # not continued: lost, and ended once it can no longer be re-linked
             at = np.flatnonzero(member(prev.track_id, np.array(gone, np.int64)))
-            if self.prev_ends is not None:  # the same values, already computed for prev's rows
-                lf, lx, lv = (e[at] for e in self.prev_ends)
-            else:
-                lf, lx, lv = tracklet_ends(prev.xyz[at], prev.valid[at], prev.start, self.max_speed)
+            lf, lx, lv = tracklet_ends(prev.xyz[at], prev.valid[at], prev.start, self.max_speed)
             for k, tid in enumerate(prev.track_id[at].tolist()):
                 self.track_last.pop(tid)
                 self.lost[tid] = (int(lf[k]), lx[k], lv[k])

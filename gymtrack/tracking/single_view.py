@@ -89,19 +89,6 @@ def iou_corners(a: np.ndarray, b: np.ndarray) -> np.ndarray:
         return iw / (a[4][:, None] + b[4] - iw)
 
 
-def renamed(track_id: np.ndarray, new: np.ndarray, old: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Live 2D tracks ``new`` (n,) continue under the ids ``old`` (n,) (cascade+'s link by 3D
-    motion, :mod:`.motion_link`). track_id: (T,) the live tracks' ids. Returns keep (T,) bool (an
-    old track still live is ended: its successor took over) and the kept tracks' ids, renamed."""
-    order = np.argsort(new)
-    new, old = np.asarray(new)[order], np.asarray(old)[order]
-    keep = ~np.isin(track_id, old)
-    ids = track_id[keep]
-    at = np.flatnonzero(np.isin(ids, new))
-    ids[at] = old[np.searchsorted(new, ids[at])]
-    return keep, ids
-
-
 class IoUTracker:
     """IoU trackers of all cameras at once; 2D track ids are unique over all cameras.
 
@@ -156,8 +143,3 @@ class IoUTracker:
         self.box, self.camera, self.last, self.track_id, ids, self.next_id = iou_commit(
             tb, tc, tl, ti, self.next_id, int(frame), camera, cb, r, c)
         return ids
-
-    def rename(self, new: np.ndarray, old: np.ndarray) -> None:
-        """Live tracks ``new`` (n,) continue under the ids ``old`` (n,) (:func:`renamed`)."""
-        keep, self.track_id = renamed(self.track_id, new, old)
-        self.box, self.camera, self.last = np.ascontiguousarray(self.box[:, keep]), self.camera[keep], self.last[keep]

@@ -44,7 +44,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InputError
-from .single_view import assign, corners, iou_corners, renamed
+from .single_view import assign, corners, iou_corners
 
 #: body heights per second a box centre may move (1.7 m/s for a 1.7 m person: a brisk walk)
 SPEED = 1.0
@@ -87,7 +87,7 @@ def motion_costs(tbox: np.ndarray, tvel: np.ndarray, has_vel: np.ndarray, dt: np
 class MotionIoUTracker:
     """Per-view 2D tracks of all cameras linked by predicted motion (module docstring).
 
-    Same interface as :class:`.single_view.IoUTracker` (``update``, ``rename``, ``len``, ``next_id``).
+    Same interface as :class:`.single_view.IoUTracker` (``update``, ``len``, ``next_id``).
 
     Parameters
     ----------
@@ -173,9 +173,3 @@ class MotionIoUTracker:
             self.last = np.concatenate([self.last, np.full(len(new), frame, np.int64)])
             self.track_id = np.concatenate([self.track_id, ids[new]])
         return ids
-
-    def rename(self, new: np.ndarray, old: np.ndarray) -> None:
-        """Live tracks ``new`` (n,) continue under the ids ``old`` (n,) (:func:`.single_view.renamed`)."""
-        keep, ids = renamed(self.track_id, new, old)
-        self._keep(keep)
-        self.track_id = ids

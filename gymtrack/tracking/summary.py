@@ -13,7 +13,6 @@ from dataclasses import asdict
 
 from ..modes import RECIPES
 from .fusion import COUNTS as FUSION_COUNTS
-from .motion_link import COUNTS as MOTION_COUNTS
 from .single_view_motion import COUNTS as VIEW_COUNTS
 
 __all__ = ["COUNTS", "INGREDIENT_COUNTS", "STAGES", "tracker_summary"]
@@ -26,7 +25,7 @@ COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulate
           "fused_to_plane_stage")
 #: the counters of the ingredients beyond the paper, in the summary of a recipe that has them
 INGREDIENT_COUNTS: dict[str, tuple[str, ...]] = {
-    "motion_link": MOTION_COUNTS, "image_motion": VIEW_COUNTS, "exclusion": ("points_suppressed",),
+    "image_motion": VIEW_COUNTS, "exclusion": ("points_suppressed",),
     "floor": ("floor_single_view",), "ghost_test": ("floor_ghosts_confirmed",), "keep_older": ("links_older",),
     "handover": ("target_handovers",),
 }

@@ -34,8 +34,8 @@ here once and handed to the stages as plain arguments (no stage tests a mode's n
 recipes (:data:`gymtrack.modes.RECIPES`): ``cascade`` (the method), ``triangulation`` (no plane
 fallback; single-tracklet clusters dropped, opposite pairs triangulated -- close to UniMMT),
 ``plane`` (every segment to the plane stage), the paper's ablation (Table 4); beyond the paper,
-``cascade+``: the floor hypothesis and its ghost test (:mod:`.floor`), 2D tracks joined by 3D
-motion (:mod:`.motion_link`) and, at low frame rates, by image motion (:mod:`.single_view_motion`),
+``cascade+``: the floor hypothesis and its ghost test (:mod:`.floor`), 2D tracks joined at low
+frame rates by image motion (:mod:`.single_view_motion`),
 duplicates left out (:mod:`.exclusion`), ray/plane fusion (:mod:`.fusion`) and online plane
 refinement (:mod:`.plane_refine`) where the scene asks for them.
 ``association="oracle"`` replaces the IoU tracker and Algorithm 1 by ground-truth ids in
@@ -72,7 +72,6 @@ from .floor import continuation_only, drop_floor_ghosts, floor_split
 from .exclusion import suppress_duplicates
 from .fusion import PlaneRayFusion
 from .linking import WindowLinker
-from .motion_link import MotionLinker
 from .plane_fallback import plane_split
 from .plane_fit import REFINE_EVERY
 from .plane_refine import PlaneRefiner
@@ -145,9 +144,6 @@ class Tracker:
                                    floor_by_2d=m.floor, keep_older=m.keep_older)
         self.fusion = (PlaneRayFusion(rig, scene, self.plane_arrays, self.opposite, self.counts)
                        if m.fusion and p.fuse_plane else None)
-        # 2D tracks the IoU tracker broke, joined by 3D motion (.motion_link)
-        self.motion = (MotionLinker(self.P, p.step, p.window, p.max_age, p.max_speed, self.counts)
-                       if m.motion_link and association == "iou" else None)
         # frames a segment's end box is held (windows): max_age, or hold_seconds (capped at max_age)
         self.hold = p.max_age if m.hold_seconds is None else min(p.max_age, int(m.hold_seconds * scene.fps))
         self.target = TargetStage(rig, scene, TargetHandover(p.identify_frames, self.counts) if m.handover else None)
@@ -217,7 +213,7 @@ class Tracker:
     def state_size(self) -> int:
         """Number of stored rows/items over all internal state (for checking bounded memory)."""
         return (len(self.iou) + len(self.table) + len(self.records) + len(self.linker) + len(self.target)
-                + len(self.motion or ()) + len(self.refiner or ()))
+                + len(self.refiner or ()))
 
     def summary(self) -> dict:
         """Counts and timings so far (:func:`.summary.tracker_summary`)."""
@@ -299,8 +295,6 @@ class Tracker:
         if new is not None and self.association == "iou":
             self.read += np.bincount(new, minlength=self.n_cameras)
         t = self.table.rows
-        if self.motion is not None:
-            self.motion.step(start, t, self.iou, self.linker.prev_seen)
         segs, dropped = build_window(start, self.width, t["frame"], t["camera"], t["track2d"], t["ubox"], t["det"],
                                      p.min_tracklet_boxes, self.hold)
         self.counts["windows"] += 1
@@ -395,10 +389,6 @@ class Tracker:
             WindowTracklets3D.empty(start, self.width, self.n_cameras)
         solo, floor_rows = continuation_only(len(cur), tri, floor, plane, self.counts)
         cur = self.linker.step(cur, segs.track2d, solo, floor_rows)
-        if self.motion is not None:
-            self.motion.remember(cur, segs)
-            if self.motion.ends:  # the linker's lost tracks take their ends from these (same values)
-                self.linker.prev_ends = self.motion.ends[4:]
         self.records.add(cur, segs, self._window_index)
         self._window_index += 1
         self._next_start = start + self.step
