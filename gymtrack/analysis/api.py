@@ -102,17 +102,11 @@ class Analysis:
 
 
 def _text(name: str, v: np.ndarray) -> np.ndarray | list:
-    """A float column as the writer's text (metres 4 decimals, degrees 2, empty for NaN), formatted
-    here in one pass over Python floats (the writer's per-value numpy checks cost more)."""
-    a = np.asarray(v)
-    if name in ("frame", "track_id") or a.dtype.kind not in "fiub":
-        return a
-    if a.dtype.kind in "iub":
-        return np.array([str(int(x)) for x in a.tolist()], dtype=object)
-    fmt = "{:.0f}" if name == "twist_lines_disagree" else "{:.4f}" if name.startswith("com_") and "fallback" not in name \
-        else "{:.2f}"
-    return np.array(["" if x != x or x in (float("inf"), float("-inf")) else fmt.format(x) for x in a.tolist()],
-                    dtype=object)
+    """The 0/1 flag ``twist_lines_disagree`` (float: NaN where no twist) as whole numbers; every other
+    column as it is (the writer formats numbers)."""
+    if name != "twist_lines_disagree":
+        return v
+    return ["" if x != x else f"{x:.0f}" for x in np.asarray(v, np.float64).tolist()]
 
 
 def _pick_track(poses: Poses3D, track_id: int | None) -> tuple[Poses3D, int | None]:

@@ -36,7 +36,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from ..errors import InputError
-from .textfile import read_text
+from .textfile import fixed, read_text, write_csv
 
 __all__ = ["ELEMENT_KINDS", "ANGLES_COLUMNS", "ANGLE_MEASURES", "SUPPORT_NAMES", "validate_elements", "read_elements",
            "write_elements", "read_angles", "write_angles"]
@@ -184,10 +184,6 @@ def read_elements(path: str | Path) -> dict[str, Any]:
 
 
 # ------------------------------------------------------------------ angles.csv
-def _fmt(v: np.ndarray, digits: int) -> list[str]:
-    return ["" if not np.isfinite(x) else f"{x:.{digits}f}" for x in np.asarray(v, float)]
-
-
 def write_angles(path: str | Path, columns: Mapping[str, Sequence]) -> Path:
     """Write ``angles.csv`` from named columns: every contract column (``ANGLES_COLUMNS``), then any
     extra ones in the order given. ``support`` as names (``SUPPORT_NAMES``) or codes; metres with 4
@@ -208,15 +204,12 @@ def write_angles(path: str | Path, columns: Mapping[str, Sequence]) -> Path:
             cells.append(a.tolist() if a.dtype.kind in "US" or a.dtype == object else np.asarray(SUPPORT_NAMES)[a.astype(int)].tolist())
         else:
             a = np.asarray(v)
-            cells.append(a.tolist() if a.dtype.kind in "USb" or a.dtype == object else _fmt(a, 4 if c.startswith("com") else 2))
+            cells.append(a.tolist() if a.dtype.kind in "US" or a.dtype == object
+                         else np.asarray(a, np.int64).tolist() if a.dtype.kind in "iub"
+                         else fixed(a, 4 if c.startswith("com") else 2))
         if len(cells[-1]) != n:
             raise ValueError(f"angles.csv column {c!r} has {len(cells[-1])} rows, frame has {n}")
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(names)
-        w.writerows(zip(*cells))
-    return path
+    return write_csv(path, names, cells)
 
 
 def read_angles(path: str | Path) -> dict[str, np.ndarray]:

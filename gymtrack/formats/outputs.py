@@ -28,23 +28,10 @@ from ..detections import Detections
 from ..errors import InputError
 from ..version import version
 from .motchallenge import write_mot
-from .textfile import read_text
+from .textfile import fixed as _fmt, read_text, write_csv as _write_csv
 
 TRACKS_3D_COLUMNS = ("frame", "track_id", "x", "y", "z", "top_z", "bottom_z", "source", "n_views")
 TARGET_3D_COLUMNS = ("frame", "track_id", "x", "y", "z", "source")
-
-
-def _fmt(values: np.ndarray, digits: int) -> list[str]:
-    return ["" if not np.isfinite(v) else f"{v:.{digits}f}" for v in values]
-
-
-def _write_csv(path: Path, header: tuple[str, ...], columns: list[list]) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(header)
-        w.writerows(zip(*columns))
-    return path
 
 
 def write_tracks_3d(path: str | Path, tracks) -> Path:

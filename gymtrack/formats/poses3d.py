@@ -26,15 +26,11 @@ import numpy as np
 from ..errors import InputError
 from ..poses import HOW_NAMES, HOW_NONE, Poses3D
 from ..skeletons import SKELETONS, Skeleton, custom_skeleton
-from .textfile import read_text
+from .textfile import fixed as _fmt, read_text
 
 __all__ = ["POSES_3D_COLUMNS", "write_poses_3d", "read_poses_3d"]
 
 POSES_3D_COLUMNS: tuple[str, ...] = ("frame", "track_id", "joint", "x", "y", "z", "score", "n_views", "reproj_px", "how")
-
-
-def _fmt(v: np.ndarray, digits: int) -> list[str]:
-    return ["" if not np.isfinite(x) else f"{x:.{digits}f}" for x in v]
 
 
 def write_poses_3d(path: str | Path, poses: Poses3D) -> Path:

@@ -1,8 +1,13 @@
-"""Reading a user's text file with errors that name it (shared by every reader of :mod:`gymtrack.formats`)."""
+"""Reading a user's text file with errors that name it, and writing numbers and CSV tables (shared by
+every reader and writer of :mod:`gymtrack.formats`)."""
 
 from __future__ import annotations
 
+import csv
 from pathlib import Path
+from typing import Sequence
+
+import numpy as np
 
 from ..errors import InputError
 
@@ -36,3 +41,20 @@ def what_is(value, empty: str = "nothing") -> str:
     if isinstance(value, dict):
         return "a mapping"
     return f"a value of type {type(value).__name__}"
+
+
+def fixed(values, digits: int) -> list[str]:
+    """(N,) numbers as text with ``digits`` decimals, "" where not finite (a missing value); one pass
+    over Python floats (per-value numpy calls cost more on the writers' long columns)."""
+    return ["" if x != x or x in (float("inf"), float("-inf")) else f"{x:.{digits}f}"
+            for x in np.asarray(values, dtype=np.float64).tolist()]
+
+
+def write_csv(path: Path, header: Sequence[str], columns: Sequence[Sequence]) -> Path:
+    """Write a CSV table of equal-length columns under ``header`` (folders created); returns the path."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(header)
+        w.writerows(zip(*columns))
+    return path
