@@ -12,10 +12,8 @@ import importlib.util
 import warnings
 from pathlib import Path
 
-import numpy as np
-
 from ..errors import GymtrackWarning, InputError
-from ..formats.outputs import read_target_3d
+from ..formats.outputs import of_target, read_target_3d
 from ..formats.poses3d import read_poses_3d
 from ..formats.scene import load_scene
 from .api import Analysis, analyse
@@ -38,8 +36,7 @@ def target_poses(out: Path):
     if len(t["frame"]) == 0:
         raise InputError("target_3d.csv has no row: the tracker found no target (no track rose above the scene's "
                          "target heights in the performance space), so there is no gymnast to analyse", source=tpath)
-    key = t["frame"].astype(np.int64) * (1 << 32) + t["track_id"].astype(np.int64)
-    mine = np.isin(poses.frame * (1 << 32) + poses.track_id, key)
+    mine = of_target(poses.frame, poses.track_id, t)
     if not mine.any():
         raise InputError("poses_3d.csv has no pose of the target named in target_3d.csv (lifted with other tracks "
                          "only?): run `gymtrack pose` again", source=path)

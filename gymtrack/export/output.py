@@ -89,7 +89,7 @@ def resolve_fps(out: Path, fps: float | None = None, routine: Path | None = None
 # ----------------------------------------------------------------------------- inputs
 def _read_poses(out: Path, all_tracks: bool) -> list[tuple[str, Poses3D, int | None]]:
     """(file stem, poses, track id) per skeleton to export: the target, or every track."""
-    from ..formats.outputs import read_target_3d
+    from ..formats.outputs import of_target, read_target_3d
     from ..formats.poses3d import read_poses_3d
 
     src = out / "poses_3d.csv"
@@ -106,8 +106,7 @@ def _read_poses(out: Path, all_tracks: bool) -> list[tuple[str, Poses3D, int | N
             raise InputError("poses_3d.csv holds several tracks a frame and target_3d.csv is missing: "
                              "pass --all-tracks, or run `gymtrack track` again", source=tp)
         t = read_target_3d(tp)
-        key = t["frame"] * (1 << 32) + t["track_id"]
-        poses = poses.subset(np.isin(poses.frame * (1 << 32) + poses.track_id, key))
+        poses = poses.subset(of_target(poses.frame, poses.track_id, t))
         if len(poses) == 0:
             raise InputError("no pose of the target: no (frame, track_id) of target_3d.csv has one; "
                              "pass --all-tracks to export every track", source=src)

@@ -95,6 +95,13 @@ def read_target_3d(path: str | Path) -> dict[str, np.ndarray]:
     return _read_csv(Path(path), TARGET_3D_COLUMNS)
 
 
+def of_target(frame: np.ndarray, track_id: np.ndarray, target: dict[str, np.ndarray]) -> np.ndarray:
+    """(N,) bool: the rows (frame, track_id) that are the target's in ``target`` (read_target_3d's
+    columns), e.g. the target's poses among every track's."""
+    key = np.asarray(target["frame"], np.int64) * (1 << 32) + np.asarray(target["track_id"], np.int64)
+    return np.isin(np.asarray(frame, np.int64) * (1 << 32) + np.asarray(track_id, np.int64), key)
+
+
 #: the ``source`` values the tracker writes (``tracking.types.SOURCE_NAMES``; formats sits below tracking)
 SOURCES = ("triangulation", "plane", "interpolated")
 
