@@ -113,13 +113,21 @@ DEFAULT_MODE = "cascade+"
 
 
 def method_of(method: "Method | str") -> Method:
-    """A recipe, or the recipe of a name in :data:`RECIPES`; ValueError for another name."""
+    """A recipe; the recipe of a name in :data:`RECIPES`; or a derived recipe rebuilt from its
+    name, ``"<mode> -<ingredient> +<ingredient> ..."`` as :meth:`Method.without` and
+    :meth:`Method.adding` name it (so a string carries a derived recipe to batch workers and
+    output markers). ValueError naming an unknown mode or ingredient."""
     if isinstance(method, Method):
         return method
-    try:
-        return RECIPES[method]
-    except (KeyError, TypeError):
-        raise ValueError(f"unknown mode {method!r}; choose one of {', '.join(MODES)}") from None
+    base, *changes = str(method).split() if isinstance(method, str) else [method]
+    if base not in RECIPES:
+        raise ValueError(f"unknown mode {method!r}; choose one of {', '.join(MODES)}")
+    if any(c[:1] not in "+-" or len(c) < 2 for c in changes):
+        raise ValueError(f"unknown mode {method!r}: after the mode's name come only -<ingredient> and +<ingredient>")
+    m = RECIPES[base]
+    for c in changes:
+        m = recipe(m, *(([c[1:]], ()) if c[0] == "-" else ((), [c[1:]])))
+    return m
 
 
 def recipe(mode: "Method | str", without: "tuple[str, ...] | list[str]" = (), adding: "tuple[str, ...] | list[str]" = ()) -> Method:

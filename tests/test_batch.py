@@ -77,6 +77,28 @@ def test_batch_equals_each_routine_alone(suite, tmp_path):
         assert output_complete(got, ("track", "pose", "eval"), DEFAULT_MODE)
 
 
+def test_batch_takes_a_derived_recipe_as_track_does(suite, tmp_path):
+    """--without / --adding reach the workers: the routine's tracks are those of ``track --without``."""
+    from gymtrack.cli import app
+
+    runner = CliRunner()
+    r = runner.invoke(app, ["batch", str(suite), "--out", str(tmp_path / "b"), "--steps", "track", "--workers", "1",
+                            "--without", "floor", "--adding", "floor", "--without", "ghost_test"])
+    assert r.exit_code == 0, r.output
+    one = find_routines(suite)[0]
+    alone = tmp_path / "alone"
+    assert runner.invoke(app, ["track", one.path, "--out", str(alone), "--without", "ghost_test"]).exit_code == 0
+    got = tmp_path / "b" / one.name
+    assert (got / "tracks_3d.csv").read_bytes() == (alone / "tracks_3d.csv").read_bytes()
+    import json
+    s = json.loads((got / "summary.json").read_text())
+    assert s["mode"] == "cascade+ -floor -ghost_test +floor" and s["recipe"]["ghost_test"] is False
+    assert output_complete(got, ("track",), "cascade+ -floor -ghost_test +floor")
+    assert not output_complete(got, ("track",), DEFAULT_MODE)  # another recipe's output is redone
+    bad = runner.invoke(app, ["batch", str(suite), "--out", str(tmp_path / "bad"), "--without", "flor"])
+    assert isinstance(bad.exception, InputError) and "unknown ingredient 'flor'" in str(bad.exception)
+
+
 def test_failures_are_isolated_and_a_second_run_redoes_only_them(suite, tmp_path):
     """A corrupt routine and one whose worker dies mid-run are reported; the rest completes."""
     src = tmp_path / "in"

@@ -94,6 +94,20 @@ def test_tracker_takes_a_recipe_or_a_name(rings):
         Tracker(rig, scene, method="magic")
 
 
+def test_a_derived_recipe_is_rebuilt_from_its_name():
+    """Batch workers and output markers carry a recipe as text: each derived name gives back its recipe."""
+    for m in (PLUS.without("floor"), RECIPES["cascade"].adding("floor").without("handover"),
+              PLUS.without("ghost_test").without("exclusion").adding("floor")):
+        assert method_of(m.name) == m
+    assert method_of("cascade +floor -floor").floor is False  # applied in order
+    with pytest.raises(ValueError, match="unknown ingredient 'flor'"):
+        method_of("cascade+ -flor")
+    with pytest.raises(ValueError, match="only -<ingredient> and \\+<ingredient>"):
+        method_of("cascade+ floor")
+    with pytest.raises(ValueError, match="unknown mode"):
+        method_of("magic -floor")
+
+
 def test_a_name_is_only_a_name_for_its_recipe(rings):
     by_name = _run(rings, "cascade", "rings")
     custom = track_detections(*rings[:3], mode=Method(name="mine"))

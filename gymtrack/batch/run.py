@@ -107,10 +107,16 @@ def run_batch(source: str | Path, out: str | Path, steps: tuple[str, ...] = STEP
     files are written with what finished (``interrupted`` set) and KeyboardInterrupt is re-raised.
     """
     from ..errors import InputError
-    from ..modes import MODES
+    from ..modes import method_of
 
-    if mode not in MODES:
-        raise InputError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}", field="--mode")
+    try:
+        method = method_of(mode)
+        if method_of(method.name) != method:  # the workers get the recipe by its name
+            raise ValueError(f"recipe {method.name!r} is not named by its mode and ingredients; build it with "
+                             "gymtrack.modes.recipe")
+    except ValueError as e:
+        raise InputError(str(e), field="--mode") from None
+    mode = method.name
     routines = find_routines(source)
     out = Path(out)
     result = BatchResult([], routines, 0.0)

@@ -2,6 +2,7 @@
 
 Paper: Sections III-IV over a folder of routines (the paper's 140 performances).
 ``gymtrack batch <folder-or-list> --out <out> [--steps track,pose,analyse,eval] [--mode cascade]
+[--without INGREDIENT] [--adding INGREDIENT]
 [--workers N | --scheduler tcp://host:8786] [--force]`` writes ``<out>/<routine>/`` for every
 routine, ``<out>/batch.csv`` and ``<out>/batch.json``; complete routines are skipped, failed ones
 reported, and a second run redoes only what is not complete. Exit status 1 when a routine
@@ -19,7 +20,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from gymtrack.cli import app
-from gymtrack.modes import DEFAULT_MODE
+from gymtrack.cli.options import adding_option, mode_option, recipe_of, without_option
 
 console = Console()
 
@@ -29,7 +30,9 @@ def batch(
     source: Path = typer.Argument(..., help="folder of routines (every sub-folder with a scene.yaml) or a list file, one routine folder a line"),
     out: Path = typer.Option(..., "--out", "-o", help="output folder: <routine>/ per routine, batch.csv, batch.json"),
     steps: str = typer.Option("track,pose,eval", "--steps", help="comma-separated: track, pose, analyse, eval"),
-    mode: str = typer.Option(DEFAULT_MODE, "--mode", "-m", help="cascade (the paper) | cascade+ (beyond it) | triangulation | plane"),
+    mode: str = mode_option(),
+    without: Optional[list[str]] = without_option(),
+    adding: Optional[list[str]] = adding_option(),
     workers: int = typer.Option(0, "--workers", "-w", help="LocalCluster worker processes (0: one per CPU); ignored with --scheduler"),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="address of a running Dask scheduler, e.g. tcp://host:8786"),
     force: bool = typer.Option(False, "--force", help="redo routines whose outputs are already complete (and replace routine folders under OUT that are not gymtrack outputs)"),
@@ -43,6 +46,7 @@ def batch(
     from gymtrack.batch import find_routines, parse_steps, run_batch
 
     step_list = parse_steps(steps)
+    mode = recipe_of(mode, without, adding).name  # a derived recipe travels to the workers by its name
     n = len(find_routines(source))
     where = scheduler or f"a LocalCluster of {workers or 'one per CPU'} processes"
     console.print(f"{n} routines, steps {', '.join(step_list)} (mode {mode}), on {where}")

@@ -20,7 +20,32 @@ import typer
 
 from ..formats.checks import SILENT_SECONDS, StreamChecks, check_detections
 from ..formats.routine import Routine, load_routine
+from ..modes import DEFAULT_MODE, INGREDIENTS, Method
 from .report import REPORTER
+
+
+def mode_option() -> str:
+    return typer.Option(DEFAULT_MODE, "--mode", "-m", help="cascade (the paper) | cascade+ (beyond it) | triangulation | plane")
+
+
+def without_option() -> Optional[list[str]]:
+    return typer.Option(None, "--without", help=f"switch this ingredient of the mode off (repeat the option): {', '.join(INGREDIENTS)}")
+
+
+def adding_option() -> Optional[list[str]]:
+    return typer.Option(None, "--adding", help="switch this ingredient on as cascade+ has it (repeat the option; names as --without)")
+
+
+def recipe_of(mode: str, without: Optional[list[str]], adding: Optional[list[str]]) -> Method:
+    """The recipe of ``--mode`` / ``--without`` / ``--adding`` (its ``name`` carries it as text,
+    :func:`gymtrack.modes.method_of`); InputError naming the option that is wrong."""
+    from ..errors import InputError
+    from ..modes import method_of, recipe
+
+    try:
+        return recipe(method_of(mode), without or (), adding or ())
+    except ValueError as e:
+        raise InputError(str(e), field="--without/--adding" if "ingredient" in str(e) else "--mode") from None
 
 
 def calibration_format_option() -> Optional[str]:

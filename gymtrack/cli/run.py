@@ -6,7 +6,8 @@ the crops of ``b_buf`` and the lifted 3D pose (III-D, last paragraph). Writes in
 every output of ``docs/formats.md``: ``detections/`` (the detector's boxes, so ``track`` can be
 rerun), the track outputs, ``keypoints/``, ``poses_3d.csv`` and ``analysis/`` (what judges measure,
 :mod:`gymtrack.analysis`); shows a progress bar per stage
-and the time per stage.
+and the time per stage. ``--mode``, ``--without`` and ``--adding`` choose the tracker's recipe as
+for ``gymtrack track``.
 """
 
 from __future__ import annotations
@@ -18,8 +19,8 @@ from typing import Optional
 import typer
 
 from gymtrack.cli import app
-from gymtrack.modes import DEFAULT_MODE
-from gymtrack.cli.options import calibration_format_option, overwrite_option, units_option
+from gymtrack.cli.options import (adding_option, calibration_format_option, mode_option, overwrite_option, recipe_of,
+                                  units_option, without_option)
 from gymtrack.cli.locking import hold, wait_option
 from gymtrack.cli.report import interrupts
 from gymtrack.cli.detect import (build_models, console, detect_report, load_rig_scene, open_routine_videos,
@@ -34,7 +35,9 @@ def run(
     pose_model: Optional[Path] = typer.Option(None, "--pose-model", help="pose ONNX file (or pose.path in --models)"),
     models_yaml: Optional[Path] = typer.Option(None, "--models", help="models.yaml with paths and adapter options"),
     device: Optional[str] = typer.Option(None, "--device", help="cpu | cuda | tensorrt | auto (default cpu)"),
-    mode: str = typer.Option(DEFAULT_MODE, "--mode", "-m", help="cascade (the paper) | cascade+ (beyond it) | triangulation | plane"),
+    mode: str = mode_option(),
+    without: Optional[list[str]] = without_option(),
+    adding: Optional[list[str]] = adding_option(),
     all_tracks: bool = typer.Option(False, "--all-tracks", help="pose and lift every 3D track, not only the target"),
     lift: str = typer.Option("robust", "--lift", help="dlt | robust"),
     overwrite: bool = overwrite_option(),
@@ -46,10 +49,8 @@ def run(
     from gymtrack.errors import InputError
     from gymtrack.formats.atomic import atomic_output, check_output_folder
     from gymtrack.pose.stage import LIFT_METHODS
-    from gymtrack.modes import MODES
 
-    if mode not in MODES:
-        raise InputError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}", field="--mode")
+    mode = recipe_of(mode, without, adding).name
     if lift not in LIFT_METHODS:
         raise InputError(f"unknown lifting method {lift!r}; choose one of {', '.join(LIFT_METHODS)}", field="--lift")
     out = Path(out)

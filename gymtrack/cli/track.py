@@ -27,12 +27,11 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from gymtrack.cli import app
-from gymtrack.cli.options import (calibration_format_option, calibration_option, keypoints_option, skeleton_option,
-                                  overwrite_option, read_routine, silent_seconds_option,
-                                  strict_option, units_option)
+from gymtrack.cli.options import (adding_option, calibration_format_option, calibration_option, keypoints_option,
+                                  mode_option, overwrite_option, read_routine, recipe_of, silent_seconds_option,
+                                  skeleton_option, strict_option, units_option, without_option)
 from gymtrack.cli.locking import hold, wait_option
 from gymtrack.cli.report import REPORTER, interrupts
-from gymtrack.modes import DEFAULT_MODE, INGREDIENTS
 
 console = Console()
 
@@ -82,7 +81,7 @@ def empty_result_warnings(summary: dict) -> list[str]:
 def track(
     routine: Path = typer.Argument(..., help="routine folder (cameras.yaml, scene.yaml, detections/)"),
     out: Path = typer.Option(..., "--out", "-o", help="output folder (replaced whole, atomically, when the run completes)"),
-    mode: str = typer.Option(DEFAULT_MODE, "--mode", "-m", help="cascade (the paper) | cascade+ (beyond it) | triangulation | plane"),
+    mode: str = mode_option(),
     calibration_format: Optional[str] = calibration_format_option(),
     units: Optional[str] = units_option(),
     calibration: Optional[Path] = calibration_option(),
@@ -91,10 +90,8 @@ def track(
     overwrite: bool = overwrite_option(),
     strict: bool = strict_option(),
     silent_seconds: float = silent_seconds_option(),
-    without: Optional[list[str]] = typer.Option(None, "--without", help="switch this ingredient of the mode off "
-                                                f"(repeat the option): {', '.join(INGREDIENTS)}"),
-    adding: Optional[list[str]] = typer.Option(None, "--adding", help="switch this ingredient on as cascade+ has it "
-                                               "(repeat the option; names as --without)"),
+    without: Optional[list[str]] = without_option(),
+    adding: Optional[list[str]] = adding_option(),
     watch_cameras: bool = typer.Option(False, "--watch-cameras", help="watch each camera's residuals: warn when one "
                                        "is knocked (and when, by how many degrees) or out of sync (costs about a fifth "
                                        "of the tracking speed)"),
@@ -104,17 +101,11 @@ def track(
 ) -> None:
     """Track a routine: 3D tracks, per-view boxes and the target gymnast (paper Section III)."""
     from gymtrack.cli.system import compile_notice
-    from gymtrack.errors import InputError
     from gymtrack.formats.atomic import atomic_output, check_output_folder
     from gymtrack.formats.outputs import write_outputs
     from gymtrack.tracking.offline import track_detections
 
-    from gymtrack.modes import recipe
-
-    try:
-        method = recipe(mode, without or (), adding or ())
-    except ValueError as e:
-        raise InputError(str(e), field="--without/--adding" if "ingredient" in str(e) else "--mode") from None
+    method = recipe_of(mode, without, adding)
     inputs = {"routine": Path(routine).absolute(), "mode": mode, "calibration_format": calibration_format, "units": units,
               "calibration": calibration and Path(calibration).absolute(), "keypoints": keypoints and Path(keypoints).absolute()}
     if without or adding:
