@@ -1,7 +1,7 @@
 """Lifting speed: frames per second of ``dlt`` and ``robust`` for one target seen by 4 views.
 
-Issue #9 item 7 (the paper's Section III-D lifts the target's 2D poses per frame; the pose
-stage must not be the bottleneck of a tracker that runs at >= 1000 frames per second). Target:
+The paper's Section III-D lifts the target's 2D poses per frame; the pose
+stage must not be the bottleneck of a tracker that runs at >= 1000 frames per second. Target:
 >= 2000 frames per second for ``robust`` lifting of one target in 4 views.
 
 Usage::

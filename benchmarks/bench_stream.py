@@ -1,4 +1,4 @@
-"""Peak memory of the streaming tracker against stream length (issue 11: an endless stream).
+"""Peak memory of the streaming tracker against stream length (an endless stream).
 
 Paper: Section III, Fig. 2 -- the tracker is online; a one-hour routine session at 30 fps is
 108,000 frames. The claim checked here: the streaming :class:`gymtrack.tracking.Tracker` runs

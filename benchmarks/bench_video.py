@@ -1,6 +1,6 @@
 """The pipeline's own work around the models, in ms per multi-view frame (four 1080p cameras).
 
-Issue #13 closing note: decode, resize/letterbox, crops, output decoding, tracking and lifting
+The target: decode, resize/letterbox, crops, output decoding, tracking and lifting
 must keep up with four 1080p cameras at 30 frames per second (total < 33 ms per multi-view
 frame) on this machine; the models' own inference is not counted (it depends on the model and
 the accelerator) but the stand-ins' time is shown apart.

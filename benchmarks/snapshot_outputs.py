@@ -26,7 +26,7 @@ if "--wildtrack" in sys.argv:
     del sys.argv[i:i + 2]
 suite, out = Path(sys.argv[1]), Path(sys.argv[2])
 patterns = (sys.argv[3] if len(sys.argv) > 3 else "*").split(",")  # fnmatch on the routine path relative to SUITE
-METHODS = ("cascade", "cascade+", "triangulation", "plane", "mvpt", "oracle")  # cascade+: beyond the paper, issue 12
+METHODS = ("cascade", "cascade+", "triangulation", "plane", "mvpt", "oracle")  # cascade+: beyond the paper
 methods = tuple(sys.argv[4].split(",")) if len(sys.argv) > 4 else METHODS
 import fnmatch
 import gymtrack
@@ -36,7 +36,7 @@ from gymtrack.formats.outputs import write_outputs
 from gymtrack.eval.benchmark import run_method
 try:
     from gymtrack.formats.ground_truth import load_ground_truth
-except ImportError:  # trees before issue 10
+except ImportError:  # older trees
     from gymtrack.eval.gt import load_ground_truth
 
 def strip(d):

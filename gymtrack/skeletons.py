@@ -1,4 +1,4 @@
-"""Skeletons: the joint layouts of the 2D pose models the pose stage reads (issue #9).
+"""Skeletons: the joint layouts of the 2D pose models the pose stage reads.
 
 The paper (Yang et al., Section III) tracks a box per person; the pose stage extends it with
 joints inside the target's expanded box ``b_buf`` (Eq. 14). This module names those joints.

@@ -47,7 +47,7 @@ LAYERS: dict[str, int] = {
 }
 FACADE = "gymtrack"  # gymtrack/__init__.py: the public API, above every layer
 
-#: Offenders tolerated for now (none since issue 10); an entry must still be an offence, so the list only shrinks.
+#: Offenders tolerated for now (none now); an entry must still be an offence, so the list only shrinks.
 ALLOWED: dict[str, set[str]] = {
     "size": set(),
     "private": set(),

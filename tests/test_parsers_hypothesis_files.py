@@ -1,4 +1,4 @@
-"""Property tests for the readers of whole files (issue 11, item 10): scene.yaml, the ground
+"""Property tests for the readers of whole files: scene.yaml, the ground
 truth (persons_3d.csv, keypoints_3d.csv), poses_3d.csv, the tracker's outputs (tracks_3d.csv,
 target_3d.csv), and the Panoptic and EasyMocap calibrations.
 

@@ -1,5 +1,5 @@
 """Plane fitting (RANSAC vertical plane, floor), planes: auto, the wrong-plane experiment's
-perturbation, and cascade+'s fusion of rays and the plane prior (issue 12, items 3-4)."""
+perturbation, and cascade+'s fusion of rays and the plane prior."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """The covariance-weighted apparatus-plane fit (two opposite views), its degeneracy reports, and
-the tracker's online plane refinement (issue 12, item 3)."""
+the tracker's online plane refinement."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""cascade+'s benchmark targets (issue 12) against hand-worked answers on made-up rows."""
+"""cascade+'s benchmark targets against hand-worked answers on made-up rows."""
 
 from __future__ import annotations
 

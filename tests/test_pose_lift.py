@@ -1,4 +1,4 @@
-"""3D lifting of one track's 2D poses (issue #9 item 2): DLT against OpenCV and truth, and the
+"""3D lifting of one track's 2D poses: DLT against OpenCV and truth, and the
 robust lifting's parts (swaps, outlier views, plane anchoring, bones, smoothing) on synthetic
 bodies seen by random rigs."""
 

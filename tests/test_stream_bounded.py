@@ -1,4 +1,4 @@
-"""Time and memory follow the frames that carry boxes, not the frame range (issue 11, items 1 and 4).
+"""Time and memory follow the frames that carry boxes, not the frame range.
 
 A pause in the stream is jumped over (tracker and target stage), no output frame lies beyond the
 input's last frame, the summary counts frames with boxes, and an absurd frame number is an error

@@ -1,4 +1,4 @@
-"""The tracker's fast paths (issue 10, speed after the refactor) give what the general paths give."""
+"""The tracker's fast paths give what the general paths give."""
 
 from __future__ import annotations
 

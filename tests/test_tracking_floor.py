@@ -103,7 +103,7 @@ def test_ghost_test_drops_a_pair_standing_apart_on_the_floor():
     assert len(drop_floor_ghosts(real, segs, rig.arrays, [], P, scene, counts)[0]) == 1
     on_floor = cluster(0, 3, 0.0)  # bottom on the floor: not judged
     assert len(drop_floor_ghosts(on_floor, segs, rig.arrays, [], P, scene, counts)[0]) == 1
-    # cascade+ (issue 12): a pair whose two 2D tracks were one 3D track's in the last window is confirmed
+    # cascade+: a pair whose two 2D tracks were one 3D track's in the last window is confirmed
     counts = {"floor_ghosts": 0, "floor_ghosts_confirmed": 0}
     same = np.array([7, 5, 5, 7])  # segments 0 and 3 both belonged to track 7
     kept, segs_out = drop_floor_ghosts(ghost, segs, rig.arrays, [], P, scene, counts, same)

@@ -1,4 +1,4 @@
-"""cascade+ at low frame rates (issue 12 item 2): the per-view tracker that predicts image motion
+"""cascade+ at low frame rates: the per-view tracker that predicts image motion
 (tracking.single_view_motion), the duplicate exclusion (tracking.exclusion) and the superseded
 window estimates (tracking.records.superseded), each against ground truth or a brute-force count."""
 

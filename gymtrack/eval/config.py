@@ -3,7 +3,7 @@
 Paper: the targets checked against Tables 3 and 5 (Section IV) -- the cascade's FR and AED
 relative to triangulation alone at two cameras, no loss with four, closeness to the
 ground-truth association, and speed -- live here rather than in the library's code, with the
-default place of the WILDTRACK data; so do the pose targets of the paper's Fig. 7 (issue #9),
+default place of the WILDTRACK data; so do the pose targets of the paper's Fig. 7,
 checked on the MPJPE over the frames and joints both compared outputs estimated
 (:mod:`gymtrack.eval.pose_bench`).
 """
@@ -42,7 +42,7 @@ class BenchmarkConfig:
     pose_cascade_over_oracle: float = 1.3
     #: lifting one target seen by 4 views, frames per second, at least (benchmarks/bench_pose.py)
     pose_min_lift_fps: float = 2000.0
-    #: beyond the paper (issue 12), cascade+: all people, mean over apparatus, MOTA / IDF1 at n_cam = 4 at least
+    #: beyond the paper, cascade+: all people, mean over apparatus, MOTA / IDF1 at n_cam = 4 at least
     plus_mota_4: float = 0.85
     plus_idf1_4: float = 0.80
     #: ... MOTA at n_cam = 2 at least

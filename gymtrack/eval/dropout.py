@@ -1,4 +1,4 @@
-"""The benchmark's camera drop-out section (issue 11 item 9; beyond the paper).
+"""The benchmark's camera drop-out section (beyond the paper).
 
 A camera that goes silent mid-routine (unplugged, its detector crashed) leaves the tracker with
 one view fewer from that frame on. The section takes the suite's four-camera routines, silences

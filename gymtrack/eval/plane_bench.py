@@ -1,4 +1,4 @@
-"""The plane-fitting experiment (beyond the paper; issue 12): a wrong preset plane, then the fitted one.
+"""The plane-fitting experiment (beyond the paper): a wrong preset plane, then the fitted one.
 
 Paper: Section III-C's vertical plane (Eq. 7) is typed in; the cascade's plane candidates are
 only as good as it. Per routine this runs the cascade three times and compares the target's

@@ -1,7 +1,7 @@
-"""The targets of ``cascade+`` (beyond the paper, issue 12), checked on the benchmark's own run.
+"""The targets of ``cascade+`` (beyond the paper), checked on the benchmark's own run.
 
 Paper: none directly; the paper tracks the target gymnast (Section III, Tables 3 and 5) and
-judges it by FR and AED. Issue 12 asks more of the mode that goes past it: everyone tracked
+judges it by FR and AED. We ask more of the mode that goes past it: everyone tracked
 well (all-people MOTA / IDF1 of the 3D tracks, :mod:`gymtrack.eval.metrics`), at least as well
 as triangulation-only on every apparatus and n_cam; the target no further from the
 ground-truth association (oracle) than 1.15 x, and at n_cam = 2 no worse than the paper's
@@ -58,7 +58,7 @@ def _below(rows: Sequence[dict], method: str, other: str) -> tuple[int, int, lis
 
 
 def plus_claims(rows: Sequence[dict], wildtrack: dict | None = None, config: BenchmarkConfig = DEFAULT_CONFIG) -> list[Claim]:
-    """Issue 12's targets for ``cascade+``, each PASS / FAIL (n/a when a method, n_cam or the
+    """The targets for ``cascade+``, each PASS / FAIL (n/a when a method, n_cam or the
     WILDTRACK section is missing). ``wildtrack``: :func:`.wildtrack.run_wildtrack`'s result."""
     nan = float("nan")
     out: list[Claim] = []

@@ -62,7 +62,7 @@ def _pose_scores(routine: Path, out: Path, result, gt, scene, notes: list[str]) 
             missing = truth if pred.is_file() else pred
             notes.append(f"poses not scored: no {missing.name} in {missing.parent}")
         return None
-    try:  # the pose stage (issue #9) lands separately; without it, say so instead of failing
+    try:  # the pose stage is a separate step; without it, say so instead of failing
         from ..formats.gt_keypoints import read_keypoints_3d
         from ..formats.poses3d import read_poses_3d
         from ..skeletons import COCO17

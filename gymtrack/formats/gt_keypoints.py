@@ -1,7 +1,7 @@
 """Reading the simulator's 3D joint ground truth, ``gt/keypoints_3d.csv``.
 
 Paper: Section III-D and Fig. 7-8 (the 3D pose triangulated from the 2D keypoints of the
-target's boxes); issue #9: the pose error is measured against these joints, and the simulated
+target's boxes); the pose error is measured against these joints, and the simulated
 pose model needs every person's joints to show the person a crop really holds.
 
 Format (``shared/formats.md``): a header ``frame,person_id,joint,x,y,z`` then one row per

@@ -8,7 +8,7 @@ off the apparatus and bad triangulations do not pull the plane.
 
 * :func:`fit_vertical_plane`: a plane whose normal is horizontal (``n_z = 0``): a line fitted to
   the points' (x, y); a vertical plane is what Eq. 7 uses.
-* :func:`fit_apparatus_plane` (issue 12): the vertical plane by a scan over its direction,
+* :func:`fit_apparatus_plane` : the vertical plane by a scan over its direction,
   each point weighted by its own covariance (:func:`triangulation_covariances`: an opposite
   pair's point is precise across the cameras' axis and poor along it) and each stretch of the
   plane counted once however long the gymnast dwells there; it says when the data do not
@@ -155,7 +155,7 @@ def fit_apparatus_plane(points: np.ndarray, cov: np.ndarray | None = None, prese
                         point_sigma: float = 0.05, stray: float = 0.25, cell: float = 0.25, min_cells: int = 8,
                         min_ratio: float = 1.5, max_angle_sigma: float = 5.0, step_deg: float = 0.5,
                         max_turn: float = 30.0, cell_cap: float = 5.0) -> PlaneFitResult:
-    """The apparatus' vertical plane through the gymnast's (N, 3) centres (beyond the paper: issue 12).
+    """The apparatus' vertical plane through the gymnast's (N, 3) centres (beyond the paper).
 
     cov: (N, 2, 2) or (N, 3, 3) covariances (only the horizontal block is used; default
     ``point_sigma``^2 I); ``stray``: metres the body's centre strays from the plane. For every

@@ -1,4 +1,4 @@
-"""Model adapters on ONNX Runtime: person detectors and top-down pose models (issue #13).
+"""Model adapters on ONNX Runtime: person detectors and top-down pose models.
 
 Paper: Section III-A (a person detector -- YOLOX-S in the paper -- on every frame of every view)
 and Section III-D (a top-down pose model -- HRNet -- on high-resolution crops of ``b_buf``).
