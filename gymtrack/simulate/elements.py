@@ -212,11 +212,11 @@ def ground_truth_elements(records: list[dict], yaw: np.ndarray, pitch: np.ndarra
     records: the motion builder's element records (0-based frames); yaw, pitch, twist: (T,) the
     target's orientation, radians (unused: the contract's rotations are the joints'; kept for the
     callers); keypoints: (T, 17, 3) its true COCO-17 joints (drift included,
-    as written to ``gt/keypoints_3d.csv``); app: the apparatus (its plane's normal is the
-    somersault axis).
+    as written to ``gt/keypoints_3d.csv``); app: the apparatus (its
+    :attr:`~gymtrack.apparatus.Apparatus.somersault_axis`: the plane's normal, the pommel horse's length).
     """
     ang = body_angles(keypoints)
-    som, tw = joint_rotations(keypoints, app.plane_normal)  # the contract's somersault and twist
+    som, tw = joint_rotations(keypoints, app.somersault_axis)  # the contract's somersault and twist
     els: list[dict] = []
     flights = sorted((r["start"], r["end"]) for r in records if r["kind"] == "flight")
     for i, (s, e) in enumerate(flights):
