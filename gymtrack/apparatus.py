@@ -78,6 +78,9 @@ class Apparatus:
     h_top, h_bot: Eq. 13 identification heights of the body's top and bottom.
     bars, blocks: solid parts (for drawing, occlusion and the simulator's motion).
     along_axis: True if the gymnast travels along x in the plane ``y = 0``.
+    turn_axis: the horizontal axis the apparatus' saltos, giants and dismounts turn about (the
+        judging analysis' somersault axis); None: the plane's normal. The pommel horse's is its
+        length: its dismounts go over the horse from a handstand across it, turning about the horse.
     """
 
     name: str
@@ -89,6 +92,12 @@ class Apparatus:
     along_axis: bool
     bars: tuple[Bar, ...] = field(default_factory=tuple)
     blocks: tuple[Block, ...] = field(default_factory=tuple)
+    turn_axis: tuple[float, float, float] | None = None
+
+    @property
+    def somersault_axis(self) -> tuple[float, float, float]:
+        """The somersault axis (unit, preset frame): :attr:`turn_axis`, else the plane's normal."""
+        return self.plane_normal if self.turn_axis is None else self.turn_axis
 
     @property
     def abbreviation(self) -> str:
@@ -138,6 +147,7 @@ def _presets() -> dict[str, Apparatus]:
                 for x in (-POMMEL_SPACING / 2, POMMEL_SPACING / 2)
             ),
             blocks=(Block((-hl, -HORSE_WIDTH / 2, HORSE_HEIGHT - POMMEL_HEIGHT - 0.35), (hl, HORSE_WIDTH / 2, HORSE_HEIGHT - POMMEL_HEIGHT)),),
+            turn_axis=(1.0, 0.0, 0.0),  # n x z: the horse's length
         ),
         "vault": Apparatus(
             "vault",

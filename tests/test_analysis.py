@@ -131,6 +131,37 @@ def test_somersault_and_twist_follow_the_simulators_pitch_and_twist(double_tuck_
     assert [e["frame"] for e in a.of_kind("landing")] == [f["end_frame"] + 1]
 
 
+@pytest.mark.parametrize("normal", [(0.0, 1.0, 0.0), (1.0, 0.0, 0.0), (-0.6, 0.8, 0.0)])
+def test_the_somersault_axis_is_the_plane_normal_but_the_pommel_horses_length(normal):
+    """Laid on a scene's plane, every preset's somersault axis is the plane's normal n, but the pommel
+    horse's is its length, n x z (the preset turned with the plane, its sign following n)."""
+    from gymtrack.analysis.support import scene_geometry
+    from gymtrack.scene import PlaneSpec
+
+    n = np.asarray(normal)
+    for app in ("pommel_horse", "balance_beam", "horizontal_bar"):
+        scene = preset_scene(app).model_copy(update={"planes": (PlaneSpec(point=(0.0, 0.0, 0.0), normal=normal),)})
+        want = np.cross(n, [0.0, 0.0, 1.0]) if app == "pommel_horse" else n
+        assert np.allclose(scene_geometry(scene).somersault_axis, want, atol=1e-12), app
+
+
+def test_a_salto_over_the_pommel_horse_is_counted_about_its_length():
+    """A layout turning forward once while facing across the horse (as its handstand dismount turns):
+    about the horse's length the somersault follows the body's pitch; about the plane's normal (the
+    beam's axis), which lies in the plane of the turn, it only jumps between 0 and 180 deg."""
+    body = B.BodyModel(1.7)
+    n = 91
+    pitch = np.linspace(0.0, 2 * np.pi, n)
+    ang = np.repeat(B.posture_angles(B.LAYOUT)[None], n, 0)
+    kp = coco_of(body, np.tile([0.0, 2.0, 1.5], (n, 1)), ang, np.full(n, np.pi / 2), pitch, np.zeros(n))  # faces +y
+    a = analyse(poses_of(kp), preset_scene("pommel_horse"), samples=0, cutoff_hz=None)
+    # facing +y the body's left axis is -x: a pitch about it is minus a turn about +x
+    assert np.max(np.abs(a["somersault"] + np.degrees(pitch))) < 1e-6
+    beam = analyse(poses_of(kp), preset_scene("balance_beam"), samples=0, cutoff_hz=None)
+    ok = np.isfinite(beam["somersault"])
+    assert np.max(np.abs(beam["somersault"][ok] + np.degrees(pitch[ok]))) > 60
+
+
 def test_handstand_hold_and_its_deviation():
     body = B.BodyModel(1.6)
     n = 90

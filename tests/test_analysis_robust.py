@@ -138,6 +138,21 @@ def test_a_contact_that_leaves_the_parabola_unbroken_is_bridged():
     assert n == 0 and (out == sup).all()
 
 
+def test_a_contact_is_bridged_where_the_joints_box_stays_on_the_parabola():
+    """The box centre read as :func:`find_flights` reads it: a centre of mass 5 cm off the parabola
+    (limbs moving in a body whose box centre flies ballistically, the simulator's) keeps the
+    contact alone; the box centre on it bridges it; a box centre that a push moved keeps it."""
+    from gymtrack.analysis.flights import bridge_contacts
+
+    frame, sup, box, sd = _heights(seed=1)
+    com = box + 0.05 * np.sin(np.linspace(0, 3 * np.pi, len(box)))
+    assert bridge_contacts(frame, sup, 30.0, com, sd)[1] == 0
+    out, n = bridge_contacts(frame, sup, 30.0, com, sd, box)
+    assert n == 1 and (out == 0).all()
+    _, _, pushed, _ = _heights(bounce=True, seed=1)
+    assert bridge_contacts(frame, sup, 30.0, com, sd, pushed)[1] == 0
+
+
 def test_an_airborne_run_whose_take_off_and_landing_are_unseen_is_no_flight():
     from gymtrack.analysis.flights import find_flights
 

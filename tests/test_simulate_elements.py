@@ -123,6 +123,29 @@ def test_bar_dismount_and_circles(hbar):
         assert np.degrees(dp) == pytest.approx(360, abs=12)
 
 
+def test_circles_are_full_turns_of_a_grip_run_in_one_direction():
+    """Hand-worked: a cast (half a turn) running on into a giant and a half counts two circles from
+    the cast's start; a hold's sway (under 0.5 deg a frame) keeps the direction; a swing back
+    starts a new count; a turn held for over 3 s (a press) is no circle; a gap in the grip (a
+    flight) ends a run."""
+    from gymtrack.simulate.elements import _circles
+
+    fps = 30.0
+    som = np.concatenate([np.linspace(0, 180, 16)[:-1],  # cast: 15 frames
+                          180 + 0.3 * np.sin(np.arange(10)),  # handstand held, swaying
+                          np.linspace(180, 720, 46)[1:]])  # a giant and a half
+    got = _circles([{"start": 0, "end": len(som) - 1}], som, fps)
+    ends = [e["end_frame"] - 1 for e in got]
+    assert [e["start_frame"] for e in got] == [1, ends[0] + 2] and len(got) == 2
+    assert som[ends[0]] >= 350 and som[ends[0] - 1] < 350 and som[ends[1]] >= 710
+    back = np.concatenate([som, som[-1] - np.linspace(0, 400, 40)[1:]])  # swings back a full turn
+    assert len(_circles([{"start": 0, "end": len(back) - 1}], back, fps)) == 3
+    slow = np.linspace(0, 360, int(4 * fps))  # a full turn in 4 s
+    assert _circles([{"start": 0, "end": len(slow) - 1}], slow, fps) == []
+    split = [{"start": 0, "end": 39}, {"start": 45, "end": len(som) - 1}]
+    assert len(_circles(split, som, fps)) == 1  # the part after the gap turns 405 deg
+
+
 def test_holds_are_still_and_rings_handstands(rings):
     motion, _, kp, doc = rings
     holds = [e for e in doc["elements"] if e["kind"] == "hold"]

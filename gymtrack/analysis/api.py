@@ -184,12 +184,12 @@ def analyse(poses3d: Poses3D, scene: Scene, track_id: int | None = None, *, fps:
     if len(J.frame) == 0:
         raise InputError("no 3D pose has any joint the analysis reads", field="poses")
     geo = scene_geometry(scene)
-    miss = _missing_joints(J, geo.plane_normal, geo)
+    miss = _missing_joints(J, geo.somersault_axis, geo)
     height = body_height(J.X)
     sup, grip = support_codes(J.X, geo, height, J.frame, fps)
     segs = segments(J.frame, sup)
     cuts = segment_cutoffs(segs, sup, cutoff_hz, support_cutoff_hz)
-    cols, raw, Xf = measure_samples(J, segs, fps, cuts, geo.plane_normal, body, samples, seed)
+    cols, raw, Xf = measure_samples(J, segs, fps, cuts, geo.somersault_axis, body, samples, seed)
     if cutoff_hz:  # contact again on the filtered joints (the filter kept every take-off and landing)
         sup, grip = support_codes(Xf, geo, height, J.frame, fps)
     for m in list(cols):
@@ -200,7 +200,7 @@ def analyse(poses3d: Poses3D, scene: Scene, track_id: int | None = None, *, fps:
     box_z = 0.5 * (np.nanmax(Xf[..., 2], axis=1) + np.nanmin(Xf[..., 2], axis=1))
     sigma_z = com_sd(J.sigma, body)  # the centre of mass' height sd, from each joint's
     com0 = np.column_stack([cols["com_x"][0], cols["com_y"][0], cols["com_z"][0]])
-    sup, bridged = bridge_contacts(frame, sup, fps, cols["com_z"][0], sigma_z)
+    sup, bridged = bridge_contacts(frame, sup, fps, cols["com_z"][0], sigma_z, box_z)
     fl, lifted = find_flights(frame, sup, fps, cols["com_z"][0], box_z, sigma_z, com0)
     # the angles' sd on the filtered joints: the low-pass keeps about cutoff / (fps / 2) of white noise's variance
     keep = np.sqrt(min(1.0, min(cutoff_hz, 0.4 * fps) / (fps / 2))) if cutoff_hz else 1.0

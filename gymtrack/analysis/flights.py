@@ -64,11 +64,12 @@ def fall_rate(t: np.ndarray, z: np.ndarray, sigma: float | np.ndarray = 0.0) -> 
 
 
 def bridge_contacts(frame: np.ndarray, support: np.ndarray, fps: float, com_z: np.ndarray,
-                    sigma_z: np.ndarray) -> tuple[np.ndarray, int]:
+                    sigma_z: np.ndarray, box_z: np.ndarray | None = None) -> tuple[np.ndarray, int]:
     """(support with the bridged rows set to NONE, how many contacts were bridged).
 
     A contact of at most :data:`CONTACT_MAX_S` between two airborne runs through which the centre of
-    mass stays on one parabola with g = 9.81 (weighted rms of the normalised residuals at most
+    mass -- or the centre of the joints' box ``box_z``, as :func:`find_flights` reads a flight --
+    stays on one parabola with g = 9.81 (weighted rms of the normalised residuals at most
     :data:`PARABOLA_CHI`) changed nothing: a support pushes or stops the body, so this is a joint
     measured near a surface the body flew past (a hand rising past the parallel bars' rail)."""
     out = support.copy()
@@ -79,12 +80,15 @@ def bridge_contacts(frame: np.ndarray, support: np.ndarray, fps: float, com_z: n
         short = min(frame[b1] - frame[a1], frame[b2] - frame[a2]) + 1 < MIN_FLIGHT_S * fps - 1e-9
         if short or a2 - b1 - 1 > most or np.any(np.diff(frame[b1:a2 + 1]) > 2):
             continue
-        t, z, s = frame[a1:b2 + 1] / fps, com_z[a1:b2 + 1], sigma_z[a1:b2 + 1]
-        ok = np.isfinite(z) & np.isfinite(s) & (s > 0)
-        if ok.sum() < 6:
-            continue
-        fit = parabola(t[ok] - t[ok][0], z[ok], 1.0 / s[ok])
-        if fit is not None and fit[2] <= PARABOLA_CHI:
+        t, s = frame[a1:b2 + 1] / fps, sigma_z[a1:b2 + 1]
+        on_one = False
+        for z in (com_z[a1:b2 + 1], None if box_z is None else box_z[a1:b2 + 1]):
+            ok = np.isfinite(s) & (s > 0) & (np.isfinite(z) if z is not None else False)
+            if z is None or ok.sum() < 6:
+                continue
+            fit = parabola(t[ok] - t[ok][0], z[ok], 1.0 / s[ok])
+            on_one |= fit is not None and fit[2] <= PARABOLA_CHI
+        if on_one:
             out[b1 + 1:a2] = NONE
             n += 1
     return out, n

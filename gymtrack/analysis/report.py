@@ -319,8 +319,8 @@ def _figures(a: Mapping[str, np.ndarray], doc: Mapping[str, Any], fps: float) ->
     specs: list[tuple[str, str, Callable]] = [
         ("fig-com", "Height of the centre of mass; shaded: flights, landings (the 2 s in which steps are counted), "
                     "holds, circles and turns. Above each flight: its saltos, twists and shape.", fig_com),
-        ("fig-rotation", "Somersault (about the apparatus plane's normal) and twist (about the body's long axis), "
-                         "unwrapped since the first frame.", fig_rotation),
+        ("fig-rotation", "Somersault (about the apparatus' somersault axis: its plane's normal, the pommel horse's "
+                         "length) and twist (about the body's long axis), unwrapped since the first frame.", fig_rotation),
         ("fig-joints", "Knee and hip angles (180 = straight), split (between the legs) and inclination "
                        "(0 upright, 90 horizontal, 180 inverted).", fig_joints),
         ("fig-path", "Top view of the centre of mass's path (world x, y); airborne frames marked.", fig_path),

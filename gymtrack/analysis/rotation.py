@@ -1,8 +1,11 @@
-"""Somersault and twist: the body's rotation about the apparatus plane's normal and its long axis.
+"""Somersault and twist: the body's rotation about the apparatus' somersault axis and its long axis.
 
 Paper: Section III-C (the vertical plane the gymnast's saltos and giants turn in) and III-D,
 last paragraph. Rule (``shared/formats.md``): ``somersault`` about the plane's normal ``n``,
 ``twist`` about the body's long axis ``L`` = H->S, right-hand signs, unwrapped since the first row.
+Refined (``docs/analysis.md``): ``n`` is the preset's somersault axis
+(:attr:`~gymtrack.apparatus.Apparatus.somersault_axis`), the plane's normal on every apparatus
+but the pommel horse, whose dismounts turn over the horse about its length.
 
 The orientation is split as ``R = R_n(somersault) R_e(lean) R_L(twist)`` (``e = n x z``): an Euler
 sequence whose only singular pose is the long axis along ``n`` (the body lying across the plane),
@@ -45,7 +48,7 @@ def _about(axis: np.ndarray, ref: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def raw_rotation(X: np.ndarray, normal: np.ndarray, min_hip: np.ndarray) -> dict[str, np.ndarray]:
-    """Per-frame wrapped angles (radians) from joints X (..., M, K, 3) and the plane normal (3,).
+    """Per-frame wrapped angles (radians) from joints X (..., M, K, 3) and the somersault axis (3,).
 
     min_hip: (..., M) the smaller hip angle (degrees). Returns ``somersault``, ``twist`` (wrapped,
     NaN where undefined), ``twist_shoulders``, ``twist_pelvis``, ``pelvis`` (bool, the twist came from

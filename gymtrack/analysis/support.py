@@ -43,7 +43,9 @@ class Geometry:
 
     bar_a, bar_b: (B, 3) bar ends; bar_r: (B,) radii; box_lo, box_hi: (Q, 3) block corners
     (axis-aligned in the preset's frame, turned by ``yaw`` about ``pivot``); mats: (T, 6) boxes.
-    apparatus: the preset name or None; plane_normal: (3,) unit or None.
+    apparatus: the preset name or None; plane_normal: (3,) unit or None; somersault_axis: (3,) unit
+    or None, the preset's :attr:`~gymtrack.apparatus.Apparatus.somersault_axis` laid on the plane
+    (the plane's normal where the scene names no apparatus).
     """
 
     apparatus: str | None
@@ -55,6 +57,7 @@ class Geometry:
     yaw: float
     shift: np.ndarray
     plane_normal: np.ndarray | None
+    somersault_axis: np.ndarray | None = None
 
     @property
     def has_apparatus(self) -> bool:
@@ -73,7 +76,7 @@ def scene_geometry(scene: Scene) -> Geometry:
         normal = None  # a somersault axis must be horizontal; a tilted plane is not an apparatus plane
     empty3 = np.zeros((0, 3))
     if scene.apparatus is None:
-        return Geometry(None, empty3, empty3, np.zeros(0), empty3, empty3, 0.0, np.zeros(3), normal)
+        return Geometry(None, empty3, empty3, np.zeros(0), empty3, empty3, 0.0, np.zeros(3), normal, normal)
     app: Apparatus = get_apparatus(scene.apparatus)
     yaw, shift = 0.0, np.zeros(3)
     if normal is not None:
@@ -91,7 +94,11 @@ def scene_geometry(scene: Scene) -> Geometry:
     extra = EXTRA_BLOCKS.get(app.name, ())
     lo = np.array([k.lo for k in blocks] + [e[0] for e in extra], float).reshape(-1, 3)
     hi = np.array([k.hi for k in blocks] + [e[1] for e in extra], float).reshape(-1, 3)
-    return Geometry(app.name, a, b, r, lo, hi, yaw, shift, normal)
+    axis = None
+    if normal is not None:  # the preset's axis turned with it, its sign following the scene's normal
+        axis = R @ np.asarray(app.somersault_axis, float)
+        axis *= np.sign(np.dot(R @ np.asarray(app.plane_normal, float), normal)) or 1.0
+    return Geometry(app.name, a, b, r, lo, hi, yaw, shift, normal, axis)
 
 
 def bar_distance(P: np.ndarray, a: np.ndarray, b: np.ndarray, r: np.ndarray, on_top: bool = False) -> np.ndarray:

@@ -26,9 +26,11 @@ simulator's exact state, never to a measured skeleton:
 - landing: the choreography never steps after a landing: ``steps`` 0, ``stuck``.
 - hold: the still part (every true joint slower than 0.1 m/s, >= 1 s) of a held pose, extended
   over the slow ends of its neighbours.
-- circle: a run of giants on one grip (the contract's somersault, as the flights') in one direction, one element per full 360 deg of
-  somersault from the run's start (less :data:`FULL_TURN_TOL_DEG`: a giant from handstand to
-  handstand, sampled, stops a degree or two short).
+- circle: one element per full 360 deg of the contract's somersault (as the flights') while the
+  hands hold the bar (the builder's grip phases: giants, swings, casts, kips, holds), counted from
+  the start of each run of one direction (less :data:`FULL_TURN_TOL_DEG`: a giant from handstand
+  to handstand, sampled, stops a degree or two short), as the analysis counts them: a cast to
+  handstand that runs on into giants turns with them, and its half turn counts.
 - turn: a turn on support and on the spot, of at least 90 deg (less 5 deg: :data:`MIN_TURN_DEG`),
   rounded to 90: a pivot (beam), a turn standing (to face the judges, the apparatus), and the
   heading's turn as a walk sets off when the body moves under 0.5 m while turning and 0.3 s after
@@ -48,6 +50,8 @@ HOLD_SPEED = 0.1  #: m/s
 MIN_HOLD_S = 1.0
 MIN_TURN_DEG = 85.0  #: "at least 90 deg", less a frame's worth (a turn to face the judges ends a hair short)
 FULL_TURN_TOL_DEG = 10.0  #: a giant sampled at 30 fps stops within a frame's rotation of its handstand
+TURN_STILL_DEG = 0.5  #: degrees a frame: a slower somersault on the grip (a hold's sway) keeps its direction
+CIRCLE_MAX_S = 3.0  #: a circle is a swing: one turn in at most this long
 NO_COM = ("the simulator has no mass model (its body centre is the box centre, not the centre of mass): "
           "the true value is the analysis of gt/keypoints_3d.csv")
 
@@ -183,25 +187,49 @@ def _hold(a: int, b: int, fps: float, incl: np.ndarray) -> dict:
     return out
 
 
-def _circles(giants: list[dict], som: np.ndarray) -> list[dict]:
-    """One element per full turn of a run of contiguous giants (same grip, same direction)."""
+def grip_runs(grips: list[dict]) -> list[tuple[int, int]]:
+    """(first, last) frames of the runs of contiguous grip records: the hands on the bar or rings
+    throughout (a flight or a stand in between ends a run)."""
     runs: list[list[int]] = []
-    for r in giants:
-        if runs and r["start"] == runs[-1][1] + 1 and r["grip"] == runs[-1][2] and r["direction"] == runs[-1][3]:
-            runs[-1][1] = r["end"]
+    for r in sorted(grips, key=lambda r: r["start"]):
+        if runs and r["start"] <= runs[-1][1] + 1:
+            runs[-1][1] = max(runs[-1][1], r["end"])
         else:
-            runs.append([r["start"], r["end"], r["grip"], r["direction"]])
+            runs.append([r["start"], r["end"]])
+    return [(a, b) for a, b in runs]
+
+
+def _circles(grips: list[dict], som: np.ndarray, fps: float) -> list[dict]:
+    """One element per full turn of somersault in a run of one direction while the hands hold the
+    bar: each grip run (:func:`grip_runs`) is cut where the somersault turns back (a swing's
+    turning point; a turn slower than :data:`TURN_STILL_DEG` a frame keeps its direction), and the
+    full turns are counted from each part's start, each within :data:`CIRCLE_MAX_S` (a slow turn
+    through held positions, a press on the rings, is no circle)."""
     out = []
-    for a, b, _, _ in runs:
-        prog = np.abs(som[a:b + 1] - som[max(a - 1, 0)])
-        k, start = 1, a
-        while True:
-            hit = np.flatnonzero(prog >= 360.0 * k - FULL_TURN_TOL_DEG)
-            if hit.size == 0:
-                break
-            end = a + int(hit[0])
-            out.append({"kind": "circle", "start_frame": start + 1, "end_frame": end + 1, "turns": 1})
-            start, k = end + 1, k + 1
+    for a, b in grip_runs(grips):
+        s = som[a:b + 1]
+        if len(s) < 3:
+            continue
+        step = np.diff(s)
+        sign = np.where(np.abs(step) > TURN_STILL_DEG, np.sign(step), 0.0)
+        idx = np.where(sign != 0, np.arange(len(sign)), 0)
+        sign = sign[np.maximum.accumulate(idx)]  # a pause keeps the direction it had
+        cuts = np.flatnonzero(np.diff(sign) != 0) + 1  # step i runs from frame i to i + 1
+        for p, q in zip(np.concatenate([[0], cuts]), np.concatenate([cuts, [len(sign)]])):
+            d = sign[p]
+            if d == 0:
+                continue
+            prog = d * (s[p:q + 1] - s[p])
+            k, start = 1, p
+            while True:
+                hit = np.flatnonzero(prog >= 360.0 * k - FULL_TURN_TOL_DEG)
+                if hit.size == 0:
+                    break
+                end = p + int(hit[0])
+                if end - start > CIRCLE_MAX_S * fps:
+                    break
+                out.append({"kind": "circle", "start_frame": a + start + 1, "end_frame": a + end + 1, "turns": 1})
+                start, k = end + 1, k + 1
     return out
 
 
@@ -212,11 +240,11 @@ def ground_truth_elements(records: list[dict], yaw: np.ndarray, pitch: np.ndarra
     records: the motion builder's element records (0-based frames); yaw, pitch, twist: (T,) the
     target's orientation, radians (unused: the contract's rotations are the joints'; kept for the
     callers); keypoints: (T, 17, 3) its true COCO-17 joints (drift included,
-    as written to ``gt/keypoints_3d.csv``); app: the apparatus (its plane's normal is the
-    somersault axis).
+    as written to ``gt/keypoints_3d.csv``); app: the apparatus (its
+    :attr:`~gymtrack.apparatus.Apparatus.somersault_axis`: the plane's normal, the pommel horse's length).
     """
     ang = body_angles(keypoints)
-    som, tw = joint_rotations(keypoints, app.plane_normal)  # the contract's somersault and twist
+    som, tw = joint_rotations(keypoints, app.somersault_axis)  # the contract's somersault and twist
     els: list[dict] = []
     flights = sorted((r["start"], r["end"]) for r in records if r["kind"] == "flight")
     for i, (s, e) in enumerate(flights):
@@ -239,6 +267,6 @@ def ground_truth_elements(records: list[dict], yaw: np.ndarray, pitch: np.ndarra
         a, b = int(runs[i, 0]), int(runs[i, 1])
         if (b - a + 1) / fps >= MIN_HOLD_S - 1e-9:
             els.append(_hold(a, b, fps, ang["inclination"]))
-    els += _circles([r for r in records if r["kind"] == "giant"], som)
+    els += _circles([r for r in records if r["kind"] == "grip"], som, fps)
     return {"track_id": int(track_id), "fps": float(fps), "apparatus": app.name, "source": "ground truth",
             "elements": els, "missing": {"apex_z": NO_COM, "height_gain": NO_COM, "distance": NO_COM}}

@@ -23,6 +23,7 @@ class GripPhases:
         yaw_a = np.full(n, yaw)
         tw = np.full(n, self.twist)
         c = self.body.centre_on_grip(np.broadcast_to(grip, (n, 3)), angles, yaw_a, pitch, tw)
+        self.record("grip", self.n, self.n + n - 1)  # the hands hold the bar or rings (circles are counted on these runs)
         self.append(c, yaw_a, pitch, tw, angles, posture, phase)
 
     def giant(self, grip, turns: float, direction: float, omega_top: float, yaw: float, posture: int = B.ARMS_UP,
@@ -106,6 +107,7 @@ class GripPhases:
         tw = np.full(n, self.twist)
         c = self.body.centre_on_grip(np.broadcast_to(g, (n, 3)), a, yaw_a, th, tw)
         self.record("still", self.n, self.n + n - 1)  # a held pose: handstand, L-sit, cross, support
+        self.record("grip", self.n, self.n + n - 1)
         self.append(c, yaw_a, th, tw, a, self.posture if posture is None else posture, phase)
 
     def grip_transition(self, grip, seconds: float, pitch_end: float, yaw: float, angles_end=None, posture: int | None = None,
