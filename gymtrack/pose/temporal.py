@@ -75,11 +75,13 @@ def ray_foot(o: np.ndarray, d: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, n
 
 
 def apply_prior(P: np.ndarray, X3: np.ndarray, how: np.ndarray, u: np.ndarray, v: np.ndarray, found: np.ndarray,
-                use: np.ndarray, sc: np.ndarray, prior: TemporalPrior | None = TemporalPrior()) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
+                use: np.ndarray, sc: np.ndarray, prior: TemporalPrior | None = TemporalPrior(),
+                trusted: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
     """Re-decide the doubtful joints by the track's neighbouring frames (module doc).
 
     P (C, 3, 4) undistorted projections; found: the views that found each joint (candidates);
-    use: the views it was lifted from. Returns X3, how, use updated and counts
+    use: the views it was lifted from; trusted (T,) the frames whose triangulations may form the
+    prior (default all; the lifting leaves out frames where no two views agreed). Returns X3, how, use updated and counts
     ``joints_prior_views`` (re-triangulated from the views that agree with the prior) and
     ``joints_prior_ray`` (one agreeing view, depth from the prior).
     """
@@ -89,6 +91,8 @@ def apply_prior(P: np.ndarray, X3: np.ndarray, how: np.ndarray, u: np.ndarray, v
         return X3, how, use, counts
     n_use = use.sum(axis=0).T  # (T, J)
     strong = (how == HOW_TRIANGULATED) & (n_use >= 2) & np.isfinite(X3).all(axis=2)
+    if trusted is not None:
+        strong &= np.asarray(trusted, bool)[:, None]
     R = nan_median_window(X3, strong, prior.half_window, prior.min_samples)
     has = np.isfinite(R).all(axis=2)
     with np.errstate(invalid="ignore"):
