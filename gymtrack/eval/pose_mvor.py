@@ -36,7 +36,8 @@ README_BASELINE = {"mpjpe_mm": 345.0, "median_mm": 194.0, "estimated": 0.759, "o
 
 
 def lift_mvor(mv, detector: str = "openpose", frames: np.ndarray | None = None,
-              methods: tuple[str, ...] = ("dlt", "robust")) -> dict:
+              methods: tuple[str, ...] = ("dlt", "robust"), one_body: bool = True,
+              plane_anchor: bool = True) -> dict:
     """Lift every MVOR person with 3D ground truth from a detector's linked keypoints.
 
     mv: :class:`gymtrack.formats.mvor.MVOR`; frames: frame indices to use (default all).
@@ -59,12 +60,78 @@ def lift_mvor(mv, detector: str = "openpose", frames: np.ndarray | None = None,
     # over every person (from their own residuals, no ground truth) for robust's gate
     opt = LiftOptions(noise_frac=measure_noise(mv.rig, kp, mv.skeleton)) if len(kp) else LiftOptions()
     out["noise_frac"] = opt.noise_frac
+    kp_robust = kp.copy()  # robust's own rules; dlt keeps the protocol's keypoints as they are
+    out["same_body"] = one_body_one_person(mv.rig, mv.skeleton, kp_robust, f_idx) if one_body else 0
+    up, up0 = mv.up, mv.room[2, 3]
+    out["plane_persons"] = out["height_persons"] = 0
     for m in methods:
+        src = kp_robust if m == "robust" else kp
         est = np.full((f_idx.size, J, 3), np.nan)
         for k in range(f_idx.size):
-            est[k] = lift_track(mv.rig, kp[k][None], mv.skeleton, method=m, options=opt).xyz[0]
+            est[k] = lift_track(mv.rig, src[k][None], mv.skeleton, method=m, options=opt).xyz[0]
+        if m == "robust" and plane_anchor and np.isfinite(up).all():
+            # each joint's height in the room, measured on the persons 2+ views placed (no ground truth)
+            height = np.nanmedian(est @ up + up0, axis=0)
+            for k in range(f_idx.size):
+                plane = body_plane(mv.rig, src[k], est[k], up, up0, height)
+                if plane is not None:
+                    est[k] = lift_track(mv.rig, src[k][None], mv.skeleton, method=m, centre=plane[0][None],
+                                        plane_normal=plane[1], options=opt).xyz[0]
+                    out["plane_persons"] += 1
         out[m] = est
     return out
+
+
+def body_plane(rig, kp: np.ndarray, est: np.ndarray, up: np.ndarray, up0: float, height: np.ndarray,
+               min_joints: int = 2):
+    """The vertical plane a person's lone joints are anchored on (a room has no apparatus plane):
+    through the centre of its joints est (J, 3) that 2+ views placed, facing the view that alone
+    sees most of the others (its normal that view's line of sight with the room's up taken out).
+    A person with fewer than ``min_joints`` placed has its centre where its joints' rays meet
+    their usual heights in the room (``height`` (J,), up . X + up0 = height: hips near 0). None
+    where every found joint is placed already. kp (V, J, 3)."""
+    placed = np.isfinite(est).all(-1)
+    seen = kp[..., 2] > 0  # (V, J)
+    lone = seen.any(0) & ~placed
+    if not lone.any():
+        return None
+    view = int(np.argmax((seen & lone[None]).sum(1)))
+    o = rig[view].centre
+    if placed.sum() >= min_joints:
+        centre = np.median(est[placed], axis=0)
+    else:  # its joints' rays in that view, at their usual heights
+        cam = rig[view]
+        j = np.flatnonzero(seen[view] & np.isfinite(height))
+        if not j.size:
+            return None
+        d = (np.linalg.inv(cam.K @ cam.R) @ np.c_[cam.undistort(kp[view, j, :2]), np.ones(j.size)].T).T
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = (height[j] - up0 - o @ up) / (d @ up)
+        good = np.isfinite(s) & (s > 0)
+        if not good.any():
+            return None
+        centre = np.median(o + s[good, None] * d[good], axis=0)
+    n = centre - o
+    n -= (n @ up) * up
+    norm = np.linalg.norm(n)
+    return (centre, n / norm) if norm > 1e-9 else None
+
+
+def one_body_one_person(rig, skeleton, kp: np.ndarray, f_idx: np.ndarray) -> int:
+    """Remove, in place, the views of kp (K, V, J, 3) whose pose is the same body as another
+    person's of the same frame (f_idx (K,)) and fits that person's other views better
+    (:func:`gymtrack.pose.exclusive.exclusive_bodies`, the pose stage's rule); returns how many."""
+    from ..poses import Poses2D
+    from ..pose.exclusive import exclusive_bodies
+
+    k, v = np.nonzero((kp[..., 2] > 0).any(-1))
+    if not k.size:
+        return 0
+    poses = Poses2D(f_idx[k].astype(np.int64), v.astype(np.int64), k.astype(np.int64), kp[k, v],
+                    np.full((k.size, 4), np.nan), skeleton, tuple(rig.names))
+    lose = exclusive_bodies(poses, rig, k.astype(np.int64))
+    kp[k[lose], v[lose]] = [np.nan, np.nan, 0.0]
+    return int(lose.sum())
 
 
 def mvor_errors(est: np.ndarray, gt: np.ndarray, common: np.ndarray | None = None) -> dict:

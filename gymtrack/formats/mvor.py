@@ -110,6 +110,8 @@ class MVOR:
         (person_id -1: no keypoints, no link to 3D), kept apart.
     detections: detector name -> :class:`MVORDetections`.
     counts: what was dropped or is odd, by reason.
+    room: (4, 4) ``firstCamToRoomRef`` in metres: world (camera 1) -> the room frame, z up, z = 0
+        about hip height; NaN where the file has none. :attr:`up` is the room's up in the world.
     """
 
     rig: Rig
@@ -124,6 +126,13 @@ class MVOR:
     detections: dict[str, MVORDetections]
     counts: dict[str, int]
     skeleton: Skeleton = MVOR_SKELETON
+    room: np.ndarray = field(default_factory=lambda: np.full((4, 4), np.nan))
+
+    @property
+    def up(self) -> np.ndarray:
+        """(3,) unit vector: the room's up direction in world (camera-1) coordinates; NaN without a room frame."""
+        z = self.room[2, :3]
+        return z / np.linalg.norm(z)
 
     @property
     def has3d(self) -> np.ndarray:
@@ -370,4 +379,12 @@ def read_mvor(folder: str | Path | None = None, detectors: tuple[str, ...] = ("o
             raise InputError(f"unknown MVOR detector {name!r}; known: {', '.join(DETECTORS)}", field="detectors")
     dets = {name: _read_detections(name, folder / DETECTORS[name], image_index, kp2d, bbox_only, max_match_px)
             for name in detectors}
-    return MVOR(rig, frame_ids, image_ids, day, person_id, joints3d, kp2d, boxes, bbox_only, dets, counts)
+    room = np.full((4, 4), np.nan)
+    to_room = doc["cameras_info"]["camParams"].get("firstCamToRoomRef")
+    if to_room is not None:
+        try:
+            room = np.asarray(to_room, np.float64).reshape(4, 4)
+        except ValueError:
+            raise InputError("must be 16 numbers (a 4x4 matrix)", source=path, field="firstCamToRoomRef") from None
+        room[:3, 3] /= 1000.0  # mm -> m
+    return MVOR(rig, frame_ids, image_ids, day, person_id, joints3d, kp2d, boxes, bbox_only, dets, counts, room=room)

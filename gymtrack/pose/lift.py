@@ -44,6 +44,7 @@ from .consensus import settle_ties, view_consensus
 from .dlt import gauss_newton, residuals, weighted_dlt
 from .limb_check import LimbCheck, check_arms
 from .smooth import smooth_track
+from .temporal import TemporalPrior, apply_prior
 
 METHODS = ("dlt", "robust")
 
@@ -115,11 +116,12 @@ class LiftOptions:
     plane_score_factor: float = 0.5
     fallback_score_factor: float = 0.3
     arms: LimbCheck | None = None  #: arms against the track's bones and motion (:mod:`.limb_check`); None = off
+    temporal: TemporalPrior | None = TemporalPrior()  #: doubtful joints by the track's neighbouring frames (:mod:`.temporal`)
 
     def __post_init__(self) -> None:
         for f in fields(self):
             val = getattr(self, f.name)
-            if f.name == "arms":
+            if f.name in ("arms", "temporal"):
                 continue
             if isinstance(val, bool) or not isinstance(val, (int, float)) or not np.isfinite(val) or val < 0:
                 raise InputError(f"must be a finite number >= 0, got {val!r}", source="LiftOptions", field=f.name)
@@ -358,10 +360,11 @@ def _robust(rig, P, u, v, ok, sc, skeleton, centre, normal, opt) -> Lifted:
         X3[relabel] = X3[relabel][:, flip]
         u, v, use, sc = (np.where(relabel, a[:, flip], a) for a in (u, v, use, sc))
     counts["frames_relabelled"] = int(relabel.sum())
-    X3, use, c_arms = check_arms(P, X3, u, v, use, np.where(relabel, ok[:, flip], ok), sc, gate, skeleton, opt.arms)
-    counts.update(c_arms)
+    found = np.where(relabel, ok[:, flip], ok)
+    X3, use, c_arms = check_arms(P, X3, u, v, use, found, sc, gate, skeleton, opt.arms)
     X3, how, weak, counts2 = _cascade(rig, X3, u, v, use, sc, box, centre, normal, skeleton, opt)
-    counts.update(counts2)
+    X3, how, use, c_prior = apply_prior(P, X3, how, u, v, found, use, sc, opt.temporal, ~fallback)
+    counts.update(c_arms, **counts2, **c_prior)
     how_w = np.where(how == HOW_TRIANGULATED, 1.0, opt.plane_score_factor)
     mean_sc = np.where(use, sc, 0.0).sum(axis=0).T / np.maximum(use.sum(axis=0).T, 1)
     X3, outliers = smooth_track(X3, mean_sc * how_w, opt.smooth_half_window, opt.smooth_outlier_m)
