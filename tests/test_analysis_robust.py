@@ -153,6 +153,29 @@ def test_a_contact_is_bridged_where_the_joints_box_stays_on_the_parabola():
     assert bridge_contacts(frame, sup, 30.0, com, sd, pushed)[1] == 0
 
 
+def test_an_airborne_run_with_a_hand_in_the_bars_reach_throughout_is_no_flight():
+    """A noisy wrist taken off the bar for 0.2 s in a giant (every row within 0.10 m + 2 sd of the
+    bar) is a hidden grip; a release, whose hands leave that reach, stays a flight."""
+    from gymtrack.analysis.flights import find_flights
+    from gymtrack.analysis.joints import USED, I
+    from gymtrack.analysis.support import hands_may_hold, scene_geometry
+
+    geo = scene_geometry(preset_scene("horizontal_bar"))  # the bar along x at z = 2.8
+    n = 8
+    X = np.full((n, len(USED), 3), np.nan)
+    X[:, I["left_wrist"]] = [0.0, 0.0, 2.8 + 0.014 + 0.25]  # 0.25 m over the bar
+    sigma = np.full((n, len(USED)), 0.05)
+    assert not hands_may_hold(X, sigma, geo).any()  # 0.25 > 0.10 + 2 x 0.05
+    sigma[:, I["left_wrist"]] = 0.1
+    assert hands_may_hold(X, sigma, geo).all()
+    frame, sup, z, sd = _heights(n1=n, gap=0, n2=0)
+    hold = hands_may_hold(X, sigma, geo)
+    fl, lifted = find_flights(frame, sup, 30.0, z, z, sd, may_hold=hold)
+    assert fl == [] and lifted == [(0, n - 1)]
+    hold[3] = False  # one row out of reach: the hand left the bar
+    assert find_flights(frame, sup, 30.0, z, z, sd, may_hold=hold)[0] == [(0, n - 1)]
+
+
 def test_an_airborne_run_whose_take_off_and_landing_are_unseen_is_no_flight():
     from gymtrack.analysis.flights import find_flights
 

@@ -30,7 +30,7 @@ from .flights import bridge_contacts, find_flights, flight_elements
 from .joints import NEEDS, USED, gather, body_height
 from .kinematics import angle_sd, com_sd
 from .rotation import heading
-from .support import foot_height, scene_geometry, support as support_codes
+from .support import foot_height, hands_may_hold, scene_geometry, support as support_codes
 from .uncertainty import SAMPLES, measure_samples
 
 __all__ = ["Analysis", "analyse"]
@@ -201,7 +201,7 @@ def analyse(poses3d: Poses3D, scene: Scene, track_id: int | None = None, *, fps:
     sigma_z = com_sd(J.sigma, body)  # the centre of mass' height sd, from each joint's
     com0 = np.column_stack([cols["com_x"][0], cols["com_y"][0], cols["com_z"][0]])
     sup, bridged = bridge_contacts(frame, sup, fps, cols["com_z"][0], sigma_z, box_z)
-    fl, lifted = find_flights(frame, sup, fps, cols["com_z"][0], box_z, sigma_z, com0)
+    fl, lifted = find_flights(frame, sup, fps, cols["com_z"][0], box_z, sigma_z, com0, hands_may_hold(Xf, J.sigma, geo))
     # the angles' sd on the filtered joints: the low-pass keeps about cutoff / (fps / 2) of white noise's variance
     keep = np.sqrt(min(1.0, min(cutoff_hz, 0.4 * fps) / (fps / 2))) if cutoff_hz else 1.0
     fels = flight_elements(frame, cols, sup, fps, fl, angle_sd(Xf, J.sigma * keep))

@@ -104,7 +104,7 @@ def _seen(frame, com, fps, i, j) -> bool:
 
 
 def find_flights(frame: np.ndarray, support: np.ndarray, fps: float, com_z: np.ndarray, box_z: np.ndarray,
-                 sigma_z: np.ndarray | None = None, com: np.ndarray | None = None
+                 sigma_z: np.ndarray | None = None, com: np.ndarray | None = None, may_hold: np.ndarray | None = None
                  ) -> tuple[list[tuple[int, int]], list[tuple[int, int]]]:
     """Row ranges (first, last) of the flights -- support none for at least MIN_FLIGHT_S, and the
     centre of mass or the centre of the joints' box falling like a thrown body (fitted acceleration
@@ -113,13 +113,18 @@ def find_flights(frame: np.ndarray, support: np.ndarray, fps: float, com_z: np.n
     or whose take-off and landing are both unseen (no supported row next to the run that the same
     body could reach: poses of someone else, or of nobody).
     sigma_z: (M,) the heights' sd (m) per row (the fits are weighted by it); com: (M, 3) the centre
-    of mass (None: the take-off and landing are not checked)."""
+    of mass (None: the take-off and landing are not checked); may_hold: (M,) bool, a hand lies within
+    reach of a bar given its noise (:func:`.support.hands_may_hold`): a run through which a hand
+    may hold the bar at every row is a grip the noise hid, not a flight."""
     flights, lifted = [], []
     for a, b in runs(support == NONE, frame):
         if (frame[b] - frame[a] + 1) / fps < MIN_FLIGHT_S - 1e-9:
             continue
         if com is not None and not (_seen(frame, com, fps, a - 1, a) or _seen(frame, com, fps, b + 1, b)):
             lifted.append((a, b))  # neither the take-off nor the landing seen: poses of an unknown body
+            continue
+        if may_hold is not None and may_hold[a:b + 1].all():
+            lifted.append((a, b))  # a hand never left the bar's reach: a grip lost in the noise
             continue
         t = frame[a:b + 1] / fps
         sz = sigma_z[a:b + 1] if sigma_z is not None and np.isfinite(sigma_z[a:b + 1]).all() else 0.0

@@ -32,6 +32,7 @@ SOLE = 0.04  #: ankle height over the sole, as a fraction of the body's height
 TOE = 0.06  #: metres more for a still ankle: a foot on its toes (take-off, landing) has the ankle higher
 GRIP_STILL = 2.0  #: m/s: a joint faster than this towards both neighbouring rows passes an apparatus by
 TOE_STILL = 1.0  #: m/s: an ankle slower than this (vertically, either side of the frame) may be on its toes
+HOLD_SDS = 2.0  #: a wrist within TOUCH + this many sd of a bar may be holding it (:func:`hands_may_hold`)
 NONE, FLOOR, APPARATUS = 0, 1, 2  #: support codes (``formats.elements.SUPPORT_NAMES`` order)
 ANKLES = (I["left_ankle"], I["right_ankle"])
 WRISTS = (I["left_wrist"], I["right_wrist"])
@@ -177,6 +178,16 @@ def support(X: np.ndarray, geo: Geometry, height: float, frame: np.ndarray | Non
             d = bar_distance(w, geo.bar_a, geo.bar_b, geo.bar_r)  # (M, 2, B)
             grip = np.all(np.nan_to_num(d, nan=np.inf).min(-1) < TOUCH, axis=1)  # each hand on a bar or ring
     return codes, grip
+
+
+def hands_may_hold(X: np.ndarray, sigma: np.ndarray, geo: Geometry) -> np.ndarray:
+    """(M,) bool: a wrist lies within :data:`TOUCH` + :data:`HOLD_SDS` sd (its own position sd,
+    ``sigma`` (M, K) m) of a bar or ring -- the noise alone may have taken a holding hand off it."""
+    if not len(geo.bar_r):
+        return np.zeros(len(X), bool)
+    d = apparatus_distance(X[:, list(WRISTS)], geo, bars="grasp")
+    with np.errstate(invalid="ignore"):
+        return np.any(np.nan_to_num(d, nan=np.inf) < TOUCH + HOLD_SDS * np.nan_to_num(sigma[:, list(WRISTS)]), axis=1)
 
 
 def _slow(P: np.ndarray, frame: np.ndarray, fps: float, limit: float) -> np.ndarray:
