@@ -20,7 +20,8 @@ with Eq. 3. ``method="dlt"`` is exactly that, per joint over the views that foun
    plane (given ``centre`` and ``plane_normal``), fused with its rays by their uncertainty (the
    plane prior's spread per joint measured on the track where wider than configured);
 5. per-track bone lengths (median over well-observed frames) pull weak joints along their
-   line of sight (:func:`.anchor.pull_to_bones`);
+   line of sight (:func:`.anchor.pull_to_bones`); where views disagree or one alone sees a
+   joint, the views that agree with the track's neighbouring frames decide (:mod:`.temporal`);
 6. temporal smoothing that keeps flight phases sharp (:mod:`.smooth`).
 
 Shapes: T frames, C cameras (the rig's order), J joints. Input keypoints (T, C, J, 3) raw
