@@ -4,6 +4,8 @@ bodies seen by random rigs."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import cv2
 import numpy as np
 import pytest
@@ -238,12 +240,13 @@ def test_single_view_joints_need_the_plane(rng):
     kp[10:, 1:, 9, 2] = 0.0  # the left wrist only in view 0 after frame 10
     normal = np.array([0.0, 1.0, 0.0])
     lone_view = np.s_[10:, 9]
-    bare = lift_track(rig, kp, COCO17, options=NO_SMOOTH)
+    plane_only = replace(NO_SMOOTH, temporal=None)  # the plane's own rule (the temporal prior: test_pose_temporal)
+    bare = lift_track(rig, kp, COCO17, options=plane_only)
     assert np.all(bare.how[lone_view] == HOW_NONE) and np.all(np.isnan(bare.xyz[lone_view]))
     assert bare.counts["joints_unobservable"] == 20
     assert np.all(bare.score[lone_view] == 0)
     lone = lift_track(rig, kp, COCO17, centre=centre, plane_normal=normal,
-                      options=LiftOptions(smooth_half_window=0, bone_iterations=0))
+                      options=LiftOptions(smooth_half_window=0, bone_iterations=0, temporal=None))
     assert np.all(lone.how[lone_view] == HOW_PLANE) and np.all(lone.how[:10, 9] == HOW_TRIANGULATED)
     # one ray and the plane: exactly the paper's ray-plane intersection (Eq. 7)
     cam = rig[0]
@@ -251,7 +254,7 @@ def test_single_view_joints_need_the_plane(rng):
     Xp = np.stack([intersect_rays_plane(cam.centre, ray[t - 10], Plane(centre[t], normal))[0] for t in range(10, 30)])
     np.testing.assert_allclose(lone.xyz[lone_view], Xp, atol=1e-6)
     # the forearm's length from the first 10 frames then pulls the wrist along its ray
-    pulled = lift_track(rig, kp, COCO17, centre=centre, plane_normal=normal, options=NO_SMOOTH)
+    pulled = lift_track(rig, kp, COCO17, centre=centre, plane_normal=normal, options=plane_only)
     assert pulled.counts["joints_bone_pulled"] == 20
     assert mpjpe(pulled, X, lone_view) < 0.5 * mpjpe(lone, X, lone_view)
     forearm = np.linalg.norm(X[0, 9] - X[0, 7])

@@ -9,12 +9,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gymtrack.eval.pose_mvor import lift_mvor, mvor_errors, mvor_markdown, run_mvor_pose
+from gymtrack.eval.pose_mvor import body_plane, lift_mvor, mvor_errors, mvor_markdown, one_body_one_person, run_mvor_pose
+from gymtrack.formats.mvor import MVOR_SKELETON
+
+from conftest import random_rig
 
 MVOR = Path(__file__).resolve().parents[2] / "shared" / "data" / "mvor"
 if not (MVOR / "camma_mvor_2018.json").is_file():
     MVOR = Path("/work/shared/data/mvor")
-pytestmark = pytest.mark.skipif(not (MVOR / "camma_mvor_2018.json").is_file(), reason="MVOR data (shared/data/mvor) is absent")
+needs_data = pytest.mark.skipif(not (MVOR / "camma_mvor_2018.json").is_file(), reason="MVOR data (shared/data/mvor) is absent")
 
 
 @pytest.fixture(scope="module")
@@ -24,6 +27,7 @@ def mv():
     return read_mvor(MVOR, detectors=("openpose",), max_match_px=np.inf)
 
 
+@needs_data
 def test_robust_beats_dlt_on_real_openpose_keypoints(mv):
     r = lift_mvor(mv, "openpose", frames=np.arange(60))
     assert len(r["gt"]) > 50
@@ -35,6 +39,51 @@ def test_robust_beats_dlt_on_real_openpose_keypoints(mv):
     assert b["mpjpe_mm"] < d["mpjpe_mm"]
     # a sane scale: metres, not millimetres, and most joints within half a metre
     assert 30 < b["median_mm"] < 300 and b["over_500mm"] < 0.25
+    # the room's up: unit, and mostly against camera 1's y (y points down in its image)
+    assert np.linalg.norm(mv.up) == pytest.approx(1.0) and mv.up[1] < -0.5
+
+
+def _person(rng):
+    rig = random_rig(rng, 3)
+    X = np.array([0.0, 0.0, 1.0]) + rng.normal(0, 0.2, (10, 3))  # a person's 10 joints, z up
+    kp = np.zeros((3, 10, 3))
+    for c, cam in enumerate(rig):
+        kp[c, :, :2], kp[c, :, 2] = cam.project(X), 0.9
+    return rig, X, kp
+
+
+def test_lone_joints_plane_is_vertical_through_the_person_and_faces_its_view(rng):
+    rig, X, kp = _person(rng)
+    kp[:2, 7:, 2] = 0.0  # joints 7-9 only in view 2
+    est = np.where(np.arange(10)[:, None] < 7, X, np.nan)
+    up = np.array([0.0, 0.0, 1.0])
+    centre, n = body_plane(rig, kp, est, up, 0.0, np.full(10, np.nan))
+    np.testing.assert_allclose(centre, np.median(X[:7], axis=0))
+    los = centre - rig[2].centre
+    los[2] = 0.0
+    np.testing.assert_allclose(n, los / np.linalg.norm(los), atol=1e-12)
+    assert body_plane(rig, kp, np.where(np.isfinite(est), est, X), up, 0.0, np.full(10, np.nan)) is None  # all placed
+
+
+def test_a_person_one_view_sees_is_centred_at_its_joints_usual_heights(rng):
+    rig, X, kp = _person(rng)
+    kp[1:, :, 2] = 0.0  # view 0 only: nothing triangulated
+    up = np.array([0.0, 0.0, 1.0])
+    centre, _ = body_plane(rig, kp, np.full((10, 3), np.nan), up, 0.0, X[:, 2])  # the true heights
+    np.testing.assert_allclose(centre, np.median(X, axis=0), atol=1e-9)  # every ray meets its height at its joint
+
+
+def test_one_body_one_person_leaves_a_shared_detection_to_the_person_it_fits(rng):
+    rig, X, kp = _person(rng)
+    Y = X + np.array([0.8, 0.3, 0.0])
+    kq = np.zeros_like(kp)
+    for c, cam in enumerate(rig):
+        kq[c, :, :2], kq[c, :, 2] = cam.project(Y), 0.9
+    kq[0] = kp[0]  # person 2's view 0 holds person 1's body (the file repeats a detection)
+    both = np.stack([kp, kq])
+    assert one_body_one_person(rig, MVOR_SKELETON, both, np.array([5, 5])) == 1
+    assert (both[1, 0, :, 2] == 0).all() and (both[0, 0, :, 2] == 0.9).all()
+    np.testing.assert_array_equal(both[1, 1:], kq[1:])
 
 
 def test_errors_by_hand():

@@ -11,8 +11,15 @@ Protocol (the data README's baseline, so its plain-DLT figure sits beside ours):
 is linked to the ground-truth person whose 2D annotation it is nearest to (mean joint distance,
 one-to-one per image, no distance limit), mapped to MVOR's 10 upper-body joints; every person
 with 3D ground truth is lifted on its own (a (1, 3, 10, 3) array: the frames are independent
-snapshots, so no temporal smoothing or cross-frame bone lengths can help), without plane
-anchoring (an operating room has no apparatus plane). One snapshot is too little for ``robust``
+snapshots, so no temporal smoothing, temporal prior or cross-frame bone lengths can help).
+``robust`` adds its own rules, the same as the pose stage's where the stage has them: one body,
+one person (a detection two persons of a frame share -- the file repeats 890 entries -- stays with
+the person whose other views it fits, :func:`one_body_one_person`); and the cascade for joints
+on a room (:func:`body_plane`): an operating room has no apparatus plane, so a joint one view
+alone sees is anchored on the vertical plane through the person's other joints facing that view
+(vertical by the room frame's up, ``firstCamToRoomRef``), and a person seen by one view is
+centred where its joints' rays meet their usual heights in the room (medians over the persons
+2+ views placed; no ground truth). ``dlt`` keeps the protocol's keypoints as they are. One snapshot is too little for ``robust``
 to measure the 2D noise its gate scales with, so that level is measured once over every person
 (:func:`gymtrack.pose.lift.measure_noise`, from the detections' own residuals; MVOR's real
 calibration reprojects its own ground truth with a ~6.5 px median error at 640x480, far above a
@@ -42,7 +49,9 @@ def lift_mvor(mv, detector: str = "openpose", frames: np.ndarray | None = None,
 
     mv: :class:`gymtrack.formats.mvor.MVOR`; frames: frame indices to use (default all).
     Returns ``{"gt": (K, J, 3) metres, method: (K, J, 3) estimates, "views": (K,) views with a
-    detection}`` over the K persons.
+    detection, "same_body": views robust left to another person, "plane_persons": persons whose
+    lone joints robust anchored}`` over the K persons. one_body, plane_anchor: robust's rules
+    (module doc), for the ablation.
     """
     from ..pose.lift import LiftOptions, lift_track, measure_noise
 
@@ -63,7 +72,7 @@ def lift_mvor(mv, detector: str = "openpose", frames: np.ndarray | None = None,
     kp_robust = kp.copy()  # robust's own rules; dlt keeps the protocol's keypoints as they are
     out["same_body"] = one_body_one_person(mv.rig, mv.skeleton, kp_robust, f_idx) if one_body else 0
     up, up0 = mv.up, mv.room[2, 3]
-    out["plane_persons"] = out["height_persons"] = 0
+    out["plane_persons"] = 0
     for m in methods:
         src = kp_robust if m == "robust" else kp
         est = np.full((f_idx.size, J, 3), np.nan)
@@ -167,6 +176,7 @@ def run_mvor_pose(folder: str | Path | None = None, detector: str = "openpose", 
     r = lift_mvor(mv, detector, frames)
     common = np.isfinite(r["dlt"]).all(-1) & np.isfinite(r["robust"]).all(-1)
     return {"available": True, "note": "", "detector": detector, "persons": int(len(r["gt"])), "noise_frac": r["noise_frac"],
+            "same_body": r["same_body"], "plane_persons": r["plane_persons"],
             "persons_2_views": int((r["views"] >= 2).sum()),
             "dlt": mvor_errors(r["dlt"], r["gt"], common), "robust": mvor_errors(r["robust"], r["gt"], common),
             "readme_baseline": README_BASELINE}
@@ -196,7 +206,9 @@ def mvor_markdown(d: dict) -> str:
         f"MVOR (Srivastav et al., MICCAI-LABELS 2018, arXiv:1808.08180; CC BY-NC-SA 4.0): {d['persons']} persons with 3D "
         f"ground truth ({d['persons_2_views']} with a detection of {d['detector']} in at least 2 views), 10 upper-body joints. "
         "Detections linked to the nearest annotated person without a distance limit (the README's protocol); each "
-        "person lifted on its own, no plane anchoring; robust's gate scales with the 2D noise level measured once over "
+        f"person lifted on its own; robust leaves {d.get('same_body', 0)} views of a body another person of the frame "
+        f"fits better and anchors lone joints on a vertical plane through the person ({d.get('plane_persons', 0)} "
+        "persons); robust's gate scales with the 2D noise level measured once over "
         f"every person's own residuals (no ground truth): {100 * d.get('noise_frac', float('nan')):.1f}% of the box. MPJPE over the joints each method estimated; the last column "
         f"over the {d['robust'].get('joints_common', 0)} joints both estimated.", "",
         markdown_table(["lifting", "MPJPE (mm)", "median (mm)", "joints estimated", "> 50 cm", "MPJPE, common joints (mm)"], rows),

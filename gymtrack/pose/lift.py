@@ -20,7 +20,8 @@ with Eq. 3. ``method="dlt"`` is exactly that, per joint over the views that foun
    plane (given ``centre`` and ``plane_normal``), fused with its rays by their uncertainty (the
    plane prior's spread per joint measured on the track where wider than configured);
 5. per-track bone lengths (median over well-observed frames) pull weak joints along their
-   line of sight (:func:`.anchor.pull_to_bones`);
+   line of sight (:func:`.anchor.pull_to_bones`); where views disagree or one alone sees a
+   joint, the views that agree with the track's neighbouring frames decide (:mod:`.temporal`);
 6. temporal smoothing that keeps flight phases sharp (:mod:`.smooth`).
 
 Shapes: T frames, C cameras (the rig's order), J joints. Input keypoints (T, C, J, 3) raw
@@ -363,7 +364,7 @@ def _robust(rig, P, u, v, ok, sc, skeleton, centre, normal, opt) -> Lifted:
     found = np.where(relabel, ok[:, flip], ok)
     X3, use, c_arms = check_arms(P, X3, u, v, use, found, sc, gate, skeleton, opt.arms)
     X3, how, weak, counts2 = _cascade(rig, X3, u, v, use, sc, box, centre, normal, skeleton, opt)
-    X3, how, use, c_prior = apply_prior(P, X3, how, u, v, found, use, sc, opt.temporal, ~fallback)
+    X3, how, use, c_prior = apply_prior(P, X3, how, u, v, found, use, sc, gate, opt.temporal, ~fallback)
     counts.update(c_arms, **counts2, **c_prior)
     how_w = np.where(how == HOW_TRIANGULATED, 1.0, opt.plane_score_factor)
     mean_sc = np.where(use, sc, 0.0).sum(axis=0).T / np.maximum(use.sum(axis=0).T, 1)

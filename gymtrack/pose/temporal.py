@@ -10,9 +10,11 @@ fps), so the track's own frames around ``t`` say where the joint should be:
 1. the prior ``R_t`` of each joint: the median of its well-observed positions (triangulated from
    2+ views) in the ``half_window`` frames each side of ``t``, ``t`` itself left out, where at
    least ``min_samples`` exist;
-2. a joint is doubtful where its estimate lies farther than ``tol_m`` from ``R_t``, or where its
-   depth is itself a prior (one view, the plane: how plane / fused), or where a view found it
-   but the estimate has none;
+2. a joint is doubtful where its depth is itself a prior (one view, the plane: how plane /
+   fused), or where a view found it but the estimate has none, or where it lies farther than
+   ``tol_m`` from ``R_t`` *and* its views disagree: a view that found it was left out, or a view
+   it was lifted from reprojects beyond the lifting's gate. Views that agree are never overruled
+   by the prior (a salto's joints move faster than any window follows);
 3. each view that found a doubtful joint agrees with the prior when its line of sight passes
    within ``tol_m`` of ``R_t``; two or more agreeing views are triangulated again (how =
    triangulated; the prior only chose the views), one agreeing view gives the point of its ray
@@ -30,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..poses import HOW_FUSED, HOW_NONE, HOW_PLANE, HOW_TRIANGULATED
-from .dlt import gauss_newton, weighted_dlt
+from .dlt import gauss_newton, residuals, weighted_dlt
 
 
 @dataclass(frozen=True)
@@ -75,12 +77,12 @@ def ray_foot(o: np.ndarray, d: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, n
 
 
 def apply_prior(P: np.ndarray, X3: np.ndarray, how: np.ndarray, u: np.ndarray, v: np.ndarray, found: np.ndarray,
-                use: np.ndarray, sc: np.ndarray, prior: TemporalPrior | None = TemporalPrior(),
+                use: np.ndarray, sc: np.ndarray, gate: np.ndarray, prior: TemporalPrior | None = TemporalPrior(),
                 trusted: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict]:
     """Re-decide the doubtful joints by the track's neighbouring frames (module doc).
 
     P (C, 3, 4) undistorted projections; found: the views that found each joint (candidates);
-    use: the views it was lifted from; trusted (T,) the frames whose triangulations may form the
+    use: the views it was lifted from; gate (C, J, T) the lifting's reprojection gate, pixels; trusted (T,) the frames whose triangulations may form the
     prior (default all; the lifting leaves out frames where no two views agreed). Returns X3, how, use updated and counts
     ``joints_prior_views`` (re-triangulated from the views that agree with the prior) and
     ``joints_prior_ray`` (one agreeing view, depth from the prior).
@@ -99,6 +101,12 @@ def apply_prior(P: np.ndarray, X3: np.ndarray, how: np.ndarray, u: np.ndarray, v
         far = np.linalg.norm(X3 - R, axis=2) > prior.tol_m
     n_found = found.sum(axis=0).T
     weak = (how == HOW_PLANE) | (how == HOW_FUSED) | ((how == HOW_NONE) & (n_found > 0))
+    ft, fj = np.nonzero(far & ~weak & has)
+    if ft.size:  # far from the prior: doubtful only where its views disagree
+        r = residuals(P, X3[ft, fj].T, u[:, fj, ft], v[:, fj, ft])
+        split = (n_found[ft, fj] > n_use[ft, fj]) | (use[:, fj, ft] & (r > gate[:, fj, ft])).any(axis=0)
+        far = np.zeros_like(far)
+        far[ft[split], fj[split]] = True
     doubt = has & (n_found > 0) & (far | weak)
     t, j = np.nonzero(doubt)
     if not t.size:
