@@ -159,11 +159,38 @@ class FlightKeeper:
         f = self.flight(track, upto)
         return f if f is not None and f.airborne else None
 
+    def extend(self, a: int, b: int, track: int, rows: TargetRows) -> TargetRows:
+        """Before Eq. 13 decides frames ``a..b``: the rows (every track's, frame order) join the
+        history, and the frames without a point of the target's ``track`` after its last one,
+        within reach of an airborne fit there, get the predicted point as the track's (first in
+        their frame, so that a real point of a track that took over is the one the target keeps)."""
+        self.observe(rows)
+        if track < 0 or self.rows is None:
+            return rows
+        fl = self.airborne(track, a - 1)
+        if fl is None or fl.reach() < a:
+            return rows
+        frames = np.arange(a, min(b, fl.reach()) + 1)
+        frames = frames[~np.isin(frames, rows.frame[rows.track_id == track])]
+        if not len(frames):
+            return rows
+        out = TargetRows.concat([self._points(fl, track, frames, rows.wh.shape[1:]), rows])
+        return out.take(np.argsort(out.frame, kind="stable"))
+
+    def _points(self, fl: Flight, track: int, frames: np.ndarray, wh_shape: tuple) -> TargetRows:
+        """The predicted points of ``track`` at ``frames`` (its body's extent as at its last point)."""
+        p = fl.predict(frames)
+        j = np.flatnonzero((self.rows.track_id == track) & (self.rows.frame <= fl.frame))[-1]  # its last point
+        up, down = self.rows.top_z[j] - self.rows.xyz[j, 2], self.rows.xyz[j, 2] - self.rows.bottom_z[j]
+        self.counts["ballistic_points"] += len(frames)
+        return TargetRows.of(frames, np.full(len(frames), track), p, p[:, 2] + up, p[:, 2] - down,
+                             np.full(len(frames), INTERPOLATED, np.int8), np.full((len(frames), *wh_shape), np.nan))
+
     def fill(self, a: int, target: np.ndarray, rows: TargetRows) -> TargetRows:
         """Rows of frames ``a..`` (every track's, frame order) with the target's decision per frame
-        (``target`` (F,), -1: none): the rows join the history, and frames the target is held
-        without a point, within reach of an airborne fit of its track, get the predicted point."""
-        self.observe(rows)
+        (``target`` (F,), -1: none) after Eq. 13 (rows already observed by :meth:`extend`):
+        frames the target is held without a point, within reach of an airborne fit of its track,
+        get the predicted point (a target identified after its track ended)."""
         has = np.zeros(len(target), bool)
         i = rows.frame - a
         has[i[rows.track_id == target[i]]] = True
@@ -180,13 +207,7 @@ class FlightKeeper:
             frames = frames[frames <= fl.reach()]
             if not len(frames):
                 continue
-            p = fl.predict(frames)
-            j = np.flatnonzero((self.rows.track_id == tid) & (self.rows.frame < f0))[-1]  # the last point
-            up, down = self.rows.top_z[j] - self.rows.xyz[j, 2], self.rows.xyz[j, 2] - self.rows.bottom_z[j]
-            add.append(TargetRows.of(frames, np.full(len(frames), tid), p, p[:, 2] + up, p[:, 2] - down,
-                                     np.full(len(frames), INTERPOLATED, np.int8),
-                                     np.full((len(frames), *rows.wh.shape[1:]), np.nan)))
-            self.counts["ballistic_points"] += len(frames)
+            add.append(self._points(fl, tid, frames, rows.wh.shape[1:]))
         if not add:
             return rows
         out = TargetRows.concat([rows, *add])

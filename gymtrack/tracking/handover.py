@@ -105,6 +105,12 @@ class TargetHandover:
         self._forget(int(frame.max()) if len(frame) else None)
         return sel, ended_sel
 
+    def flying(self, selector) -> int:
+        """The track whose flight the target stage predicts: the live track of the target, or of a
+        flight awaiting its resuming track (-1: none)."""
+        root = selector.target if selector.target >= 0 else next(iter(self.pending), -1)
+        return -1 if root < 0 else self.live.get(root, root)
+
     def _hand_over(self, root: int, live: int, end: int, flight=None) -> bool:
         """The new track that continues ``root`` (its live track ``live`` ended at ``end``), if
         any; a flight in the air at ``end`` is held pending instead (:mod:`.ballistic`)."""
