@@ -167,11 +167,14 @@ class FlightKeeper:
         self.observe(rows)
         if track < 0 or self.rows is None:
             return rows
+        seen = rows.frame[rows.track_id == track]
+        if len(seen) == b - a + 1:  # a point in every frame (the common case): nothing to predict
+            return rows
         fl = self.airborne(track, a - 1)
         if fl is None or fl.reach() < a:
             return rows
         frames = np.arange(a, min(b, fl.reach()) + 1)
-        frames = frames[~np.isin(frames, rows.frame[rows.track_id == track])]
+        frames = frames[~np.isin(frames, seen)]
         if not len(frames):
             return rows
         out = TargetRows.concat([self._points(fl, track, frames, rows.wh.shape[1:]), rows])
