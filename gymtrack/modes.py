@@ -10,7 +10,8 @@ choices as plain arguments, so no stage tests a mode's name. :data:`RECIPES` nam
 * ``cascade+``: the cascade and every ingredient beyond the paper (the floor hypothesis, the
   floor's ghost test, Eq. 4 on the tracklet's mean, the image-motion tracker at low
   frame rates, duplicate exclusion, the older track kept, Eq. 12 over the best-observed estimates,
-  one view alone only inside the performance space, the shorter end-box hold; ray/plane fusion and
+  one view alone only inside the performance space, the shorter end-box hold, the target's
+  handover and its ballistic flights; ray/plane fusion and
   online plane refinement where the scene asks for them).
 
 ``gymtrack benchmark --ablation`` switches cascade+'s ingredients off one at a time and adds
@@ -60,6 +61,9 @@ class Method:
         ``params.max_age`` frames; None: ``max_age`` frames (the paper's).
     handover: a track born where the target's track ended continues the target for Eq. 13
         (:mod:`gymtrack.tracking.handover`); else the target is re-identified by Eq. 13 alone.
+    ballistic: in the air the target's centre is predicted by a parabola under g
+        (:mod:`gymtrack.tracking.ballistic`): a target whose track ended in flight is held and
+        continued by the track born where the parabola puts it; held frames get the predicted point.
     name: what results and reports call it.
     """
 
@@ -76,6 +80,7 @@ class Method:
     refine_plane: bool = False
     hold_seconds: float | None = None
     handover: bool = False
+    ballistic: bool = False
     name: str = "custom"
 
     def __post_init__(self) -> None:
@@ -104,7 +109,8 @@ RECIPES: dict[str, Method] = {
     "plane": Method(plane="all", name="plane"),
     "cascade+": Method(image_motion=True, outliers_at_mean=True, floor=True, ghost_test=True, fusion=True,
                        keep_older=True, exclusion=True, best_estimates=True, solo_inside=True,
-                       refine_plane=True, hold_seconds=0.2, handover=True, name="cascade+"),
+                       refine_plane=True, hold_seconds=0.2, handover=True, ballistic=True,
+                       name="cascade+"),
 }
 MODES: tuple[str, ...] = tuple(RECIPES)
 #: the recipe a Tracker, the offline runners, batch and the command line use unless told

@@ -266,7 +266,7 @@ def test_handover_takes_the_near_newborn_only_and_reports_its_real_id():
     frame, tid, xyz = frame[order], tid[order], xyz[order]
     counts: dict = {"target_handovers": 0}
     h = TargetHandover(30, counts)
-    sel, ended = h.step(frame, tid, xyz, {5: 9, 7: 11}, SimpleNamespace(target=5, last_target=5))
+    sel, ended = h.step(frame, tid, xyz, {5: 9, 7: 11}, SimpleNamespace(target=5, last_target=5, rename=lambda *a: None))
     assert counts["target_handovers"] == 1 and h.live == {5: 6}
     assert np.array_equal(sel[tid == 6], [5, 5]) and np.array_equal(sel[tid == 7], [7, 7]) and sel[tid == 8][0] == 8
     assert ended == {7: 11}  # the target runs on in track 6, which has not ended
@@ -275,6 +275,6 @@ def test_handover_takes_the_near_newborn_only_and_reports_its_real_id():
     real = h.actual(0, target, frame, tid, sel)
     assert np.array_equal(real[:12], [5] * 10 + [6, 6]) and (real[12:] == -1).all()
     # a target lost at the old track's end is resumed on the new one
-    h2, sel2 = TargetHandover(30, {"target_handovers": 0}), SimpleNamespace(target=-1, last_target=5)
+    h2, sel2 = TargetHandover(30, {"target_handovers": 0}), SimpleNamespace(target=-1, last_target=5, rename=lambda *a: None)
     h2.step(frame, tid, xyz, {5: 9}, sel2)
     assert sel2.target == 5

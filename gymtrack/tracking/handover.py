@@ -12,10 +12,18 @@ Handover: a track born within :data:`RADIUS` of the target track's last point, b
 For the selector, the new track's points after the old track's end carry the old track's id (an
 *alias*), so Eq. 13's counts run on; the target's output rows keep the real track ids (a
 handover shows as a track id change of the target, never hidden). Only the target changes:
-the 3D tracks are the same with or without it. Counted in ``target_handovers``.
+the 3D tracks are the same with or without it. Counted in ``target_handovers``. The rows of
+the new track the selector already holds (after the old track's end) are renamed too, so that
+they count for the target at once.
 
-State (bounded): the first point of the tracks born in the last ``2 Delta`` frames, the aliases
-of tracks seen in that time, the target track's last point.
+With the recipe's ``ballistic`` (:mod:`.ballistic`): when the target's track ended in the air,
+the new track is sought where the flight's parabola puts the target at the new track's first
+frame (within :data:`RADIUS`), among the tracks born up to the prediction's reach; until then
+(or until the reach passes) the target is held (its track is not reported ended to the
+selector), and the held frames get the predicted points. Counted in ``ballistic_handovers``.
+
+State (bounded): the first and last points of the tracks seen in the last ``2 Delta`` frames,
+the aliases of tracks seen in that time, the target track's last point.
 """
 
 from __future__ import annotations
@@ -30,21 +38,27 @@ RADIUS = 1.0  #: metres: the new track's first point from the target track's las
 class TargetHandover:
     """Aliases for :class:`~.identify.TargetSelector` (see the module docstring).
 
-    delta: Eq. 13's Delta (frames); counts: the tracker's counters (``target_handovers``).
+    delta: Eq. 13's Delta (frames); counts: the tracker's counters (``target_handovers``);
+    flights: a :class:`~.ballistic.FlightKeeper` (the recipe's ``ballistic``) or None; plain: the
+    handover where the track ended (the recipe's ``handover``; False: only flights are handed over).
     Use per run of final frames: ``sel_tid, ended_sel = h.step(frame, tid, xyz, ended, selector)``,
     then the selector on ``sel_tid`` / ``ended_sel``, then ``h.actual(a, target, frame, tid, sel_tid)``.
     """
 
-    def __init__(self, delta: int, counts: dict, radius: float = RADIUS):
+    def __init__(self, delta: int, counts: dict, radius: float = RADIUS, flights=None, plain: bool = True):
+        self.plain = plain  # hand over where the track ended (the recipe's handover); else only flights
+        self.flights = flights  # a .ballistic.FlightKeeper (the recipe's ballistic) or None
+        self.pending: dict[int, tuple[int, int, object]] = {}  # root -> (old live track, its end, flight)
         self.delta, self.half, self.radius, self.counts = int(delta), max(1, int(delta) // 2), float(radius), counts
         self.alias: dict[int, tuple[int, int]] = {}  # track -> (root, from frame: its rows after this carry root)
         self.live: dict[int, int] = {}  # root -> the track carrying it now
         self.first: dict[int, tuple[int, np.ndarray]] = {}  # track -> (first frame, first point), recent births
         self.last: dict[int, tuple[int, np.ndarray]] = {}  # root -> (frame, point) of its live track's last row
+        self.ends: dict[int, tuple[int, np.ndarray]] = {}  # track -> (frame, point) of its last row, recent tracks
         self.seen_max = -1
 
     def __len__(self) -> int:
-        return len(self.alias) + len(self.first) + len(self.last)
+        return len(self.alias) + len(self.first) + len(self.last) + len(self.ends) + len(self.pending)
 
     def _rename(self, frame: np.ndarray, tid: np.ndarray) -> np.ndarray:
         sel = tid.copy()
@@ -61,15 +75,24 @@ class TargetHandover:
             for k, i in zip(ids.tolist(), new[at].tolist()):
                 self.first[k] = (int(frame[i]), xyz[i].copy())
             self.seen_max = int(ids[-1])
+        if len(tid):  # every track's last point (a target identified after its track ended needs it)
+            ids, at = np.unique(tid[::-1], return_index=True)
+            for k, i in zip(ids.tolist(), (len(tid) - 1 - at).tolist()):
+                self.ends[k] = (int(frame[i]), xyz[i])
         root = selector.target if selector.target >= 0 else selector.last_target
         if root >= 0:
             live = self.live.get(root, root)
-            rows = np.flatnonzero(tid == live)
-            if len(rows):
-                self.last[root] = (int(frame[rows[-1]]), xyz[rows[-1]].copy())
-            if live in ended and root in self.last:
+            if live in self.ends:
+                self.last[root] = self.ends[live]
+            if live in ended and root in self.last and root not in self.pending:
                 self.selector = selector
                 self._hand_over(root, live, ended[live])
+        self.selector = selector
+        for r, (live, end, fl) in list(self.pending.items()):  # flights awaiting the track that resumes them
+            if self.live.get(r, r) != live or self._hand_over(r, live, end, fl):
+                self.pending.pop(r)
+            elif len(frame) and int(frame.max()) > fl.reach():
+                self.pending.pop(r)
         sel = self._rename(frame, tid) if self.alias else tid
         ended_sel = ended
         if self.live:
@@ -77,24 +100,47 @@ class TargetHandover:
             for r, live in self.live.items():
                 if live in ended:
                     ended_sel[r] = ended[live]
+        if self.pending:  # held through the flight
+            ended_sel = {k: v for k, v in ended_sel.items() if k not in self.pending}
         self._forget(int(frame.max()) if len(frame) else None)
         return sel, ended_sel
 
-    def _hand_over(self, root: int, live: int, end: int) -> None:
+    def flying(self, selector) -> int:
+        """The track whose flight the target stage predicts: the live track of the target, or of a
+        flight awaiting its resuming track (-1: none)."""
+        root = selector.target if selector.target >= 0 else next(iter(self.pending), -1)
+        return -1 if root < 0 else self.live.get(root, root)
+
+    def _hand_over(self, root: int, live: int, end: int, flight=None) -> bool:
+        """The new track that continues ``root`` (its live track ``live`` ended at ``end``), if
+        any; a flight in the air at ``end`` is held pending instead (:mod:`.ballistic`)."""
         f_last, p_last = self.last[root]
+        if flight is None and self.flights is not None:
+            flight = self.flights.airborne(live, end)
+        if flight is None and not self.plain:
+            return False
         best, best_d = -1, self.radius
+        hi = end + self.half if flight is None else max(end + self.half, flight.reach())
         for k, (s, p) in self.first.items():
-            if k == live or k in self.alias or k == root or not (end - self.half <= s <= end + self.half):
+            if k == live or k in self.alias or k == root or not (end - self.half <= s <= hi):
                 continue
-            d = float(np.linalg.norm(p - p_last))
+            d = float(np.linalg.norm(p - (p_last if flight is None else flight.predict(np.array([s]))[0])))
             if d <= best_d:
                 best, best_d = k, d
-        if best >= 0:
-            self.alias[best] = (root, end)
-            self.live[root] = best
-            self.counts["target_handovers"] += 1
-            if self.selector.target < 0 and self.selector.last_target == root:  # lost at the old track's end: resumed
-                self.selector.target = root
+        if best < 0:
+            if flight is not None:
+                self.pending[root] = (live, end, flight)
+            return False
+        self.alias[best] = (root, end)
+        self.live[root] = best
+        self.counts["target_handovers"] += 1
+        if flight is not None:
+            self.counts["ballistic_handovers"] += 1
+        sel = self.selector
+        sel.rename(best, root, end)  # the new track's rows it holds already count for the target
+        if sel.target < 0 and sel.last_target == root:  # lost at the old track's end: resumed
+            sel.target = root
+        return True
 
     def actual(self, a: int, target: np.ndarray, frame: np.ndarray, tid: np.ndarray, sel: np.ndarray) -> np.ndarray:
         """The selector's target per frame ``a..`` (alias ids) as the real track ids of those frames."""
@@ -113,7 +159,10 @@ class TargetHandover:
             return
         old = now - 2 * self.delta
         self.first = {k: v for k, v in self.first.items() if v[0] >= old}
+        if len(self.ends) > 2 * len(self.first) + 16:  # (rarely: the dict is rebuilt)
+            self.ends = {k: v for k, v in self.ends.items() if v[0] >= old}
         for r in [r for r, (f, _) in self.last.items() if f < old]:
             self.last.pop(r)
             self.live.pop(r, None)
+            self.pending.pop(r, None)
             self.alias = {k: v for k, v in self.alias.items() if v[0] != r}

@@ -72,6 +72,10 @@ class TargetSelector:
         self._frame, self._tid = self._frame[:0], self._tid[:0]
         self._ind, self._inperf = self._ind[:0], self._inperf[:0]
 
+    def rename(self, track: int, as_track: int, after: int) -> None:
+        """The held rows of ``track`` after frame ``after`` count as ``as_track``'s (a handover)."""
+        self._tid[(self._tid == track) & (self._frame > after)] = as_track
+
     def select(self, a: int, b: int, frame: np.ndarray, tid: np.ndarray, ind: np.ndarray, inperf: np.ndarray,
                ended: dict[int, int]) -> np.ndarray:
         """Final frames ``a..b`` at once: rows (n,) of their track points (frame, tid, ind, inperf).

@@ -59,6 +59,7 @@ class TargetStage:
     def __init__(self, rig: Rig, scene: Scene, handover: TargetHandover | None = None):
         p = scene.params
         self.handover = handover  # the recipe's handover (.handover): None is the paper's Eq. 13 alone
+        self.flights = None if handover is None else handover.flights  # the recipe's ballistic (.ballistic)
         self.rig = rig
         self.n_cameras = len(rig)
         self.perf = np.asarray(scene.performance_space, dtype=np.float64)
@@ -74,7 +75,8 @@ class TargetStage:
         self._none = (Target.empty(), Detections.empty(rig.names))  # what most calls return (immutable, empty)
 
     def __len__(self) -> int:
-        return len(self.selector) + len(self.smoother) + len(self.backfill) + len(self.handover or ())
+        return (len(self.selector) + len(self.smoother) + len(self.backfill) + len(self.handover or ())
+                + len(self.flights or ()))
 
     @property
     def switches(self) -> int:
@@ -108,14 +110,19 @@ class TargetStage:
             return (Target.concat([t for t, _ in out]), Detections.concat([d for _, d in out])) if out else self._none
         if len(tracks):
             self._last_point = max(self._last_point if self._last_point is not None else a, int(tracks.frame.max()))
-        ind, inperf = identify_indicator(tracks.xyz, tracks.top_z, tracks.bottom_z, self.perf, self.h_top, self.h_bot)
+        rows = TargetRows.from_tracks(tracks, track_box_sizes(tracks, boxes, self.n_cameras))
+        if self.flights is not None:  # the target's track in flight: the parabola's points (.ballistic)
+            rows = self.flights.extend(a, b, self.handover.flying(self.selector), rows)
+        ind, inperf = identify_indicator(rows.xyz, rows.top_z, rows.bottom_z, self.perf, self.h_top, self.h_bot)
         if self.handover is None:
-            target = self.selector.select(a, b, tracks.frame, tracks.track_id, ind, inperf, ended)  # (b-a+1,)
+            target = self.selector.select(a, b, rows.frame, rows.track_id, ind, inperf, ended)  # (b-a+1,)
         else:  # the new track that takes up the target's as the old one for Eq. 13; the rows keep their ids
-            sel, ended_sel = self.handover.step(tracks.frame, tracks.track_id, tracks.xyz, ended, self.selector)
-            target = self.selector.select(a, b, tracks.frame, sel, ind, inperf, ended_sel)
-            target = self.handover.actual(a, target, tracks.frame, tracks.track_id, sel)
-        self.backfill.push(a, target, TargetRows.from_tracks(tracks, track_box_sizes(tracks, boxes, self.n_cameras)))
+            sel, ended_sel = self.handover.step(rows.frame, rows.track_id, rows.xyz, ended, self.selector)
+            target = self.selector.select(a, b, rows.frame, sel, ind, inperf, ended_sel)
+            target = self.handover.actual(a, target, rows.frame, rows.track_id, sel)
+        if self.flights is not None:  # frames still held without a point in flight (.ballistic)
+            rows = self.flights.fill(a, target, rows)
+        self.backfill.push(a, target, rows)
         upto = b - self.backfill_frames
         emitted = [self.smoother.push(rows)] if (rows := self.backfill.pop(upto)) is not None else []
         emitted.append(self.smoother.advance(upto))
