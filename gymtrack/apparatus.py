@@ -78,6 +78,8 @@ class Apparatus:
     h_top, h_bot: Eq. 13 identification heights of the body's top and bottom.
     bars, blocks: solid parts (for drawing, occlusion and the simulator's motion).
     along_axis: True if the gymnast travels along x in the plane ``y = 0``.
+    surfaces: ``(point, normal)`` of further scene surfaces where the vertical plane does not
+        hold (the plane stage's candidates on them, as on the plane; the recipe's ``surfaces``).
     """
 
     name: str
@@ -89,6 +91,7 @@ class Apparatus:
     along_axis: bool
     bars: tuple[Bar, ...] = field(default_factory=tuple)
     blocks: tuple[Block, ...] = field(default_factory=tuple)
+    surfaces: tuple[tuple[tuple[float, float, float], tuple[float, float, float]], ...] = ()
 
     @property
     def abbreviation(self) -> str:
@@ -111,6 +114,12 @@ HIGH_BAR_HEIGHT, HIGH_BAR_LENGTH = 2.8, 2.4
 UNEVEN_HIGH, UNEVEN_LOW, UNEVEN_LENGTH = 2.5, 1.7, 2.4
 UNEVEN_HORIZONTAL_GAP = 1.5  # gives a 1.70 m diagonal, inside FIG's 1.3-1.8 m
 PARALLEL_HEIGHT, PARALLEL_LENGTH, PARALLEL_SPACING = 2.0, 3.5, 0.47
+#: pommel horse: the height of the body's centre in support (circles, flairs, scissors). The palms
+#: rest on the leather (~1.05 m), the shoulders ride an arm's length (about 0.38 of the body's
+#: height, Winter's segment table: 0.63 m for 1.65 m) above them, and the hips sit about 0.25 m
+#: below the shoulders with the body in its shallow pike: ~1.4 m, a horizontal circle at nearly
+#: constant height about the hands (Section III-C's plane holds it only within the circle's radius)
+POMMEL_SUPPORT_CENTRE = 1.4
 FOCUS_HEIGHT = 1.5  # a gymnast's centre on the apparatus: 1.25 m beam + ~0.9 m, bars' hang ~1.5-2 m
 
 
@@ -138,6 +147,7 @@ def _presets() -> dict[str, Apparatus]:
                 for x in (-POMMEL_SPACING / 2, POMMEL_SPACING / 2)
             ),
             blocks=(Block((-hl, -HORSE_WIDTH / 2, HORSE_HEIGHT - POMMEL_HEIGHT - 0.35), (hl, HORSE_WIDTH / 2, HORSE_HEIGHT - POMMEL_HEIGHT)),),
+            surfaces=(((0.0, 0.0, POMMEL_SUPPORT_CENTRE), (0.0, 0.0, 1.0)),),
         ),
         "vault": Apparatus(
             "vault",

@@ -56,6 +56,9 @@ class Method:
     refine_plane: the apparatus plane refitted online from the tracker's own points
         (:mod:`gymtrack.tracking.plane_refine`), where the scene asks for it
         (``params.refine_plane`` or ``planes: auto``).
+    surfaces: the scene's surfaces (the preset's, e.g. the pommel horse's horizontal support
+        surface) join the planes in the plane stage (Eq. 5-9 unchanged: a cluster is fused on the
+        surface where its views agree best); without surfaces in the scene, nothing changes.
     hold_seconds: how long a segment's end box is held beyond its last observation, capped at
         ``params.max_age`` frames; None: ``max_age`` frames (the paper's).
     handover: a track born where the target's track ended continues the target for Eq. 13
@@ -74,6 +77,7 @@ class Method:
     best_estimates: bool = False
     solo_inside: bool = False
     refine_plane: bool = False
+    surfaces: bool = False
     hold_seconds: float | None = None
     handover: bool = False
     name: str = "custom"
