@@ -13,6 +13,9 @@ choices as plain arguments, so no stage tests a mode's name. :data:`RECIPES` nam
   one view alone only inside the performance space, the shorter end-box hold; ray/plane fusion and
   online plane refinement where the scene asks for them).
 
+Ingredients built but not in cascade+ (:data:`OPTIONAL`: the benchmark showed no gain) are added
+by name, e.g. ``cascade+ +surfaces``.
+
 ``gymtrack benchmark --ablation`` switches cascade+'s ingredients off one at a time and adds
 each to the cascade (:data:`INGREDIENTS`). A plain module (no numpy), so that the command line can
 name the recipes without importing the tracker.
@@ -22,7 +25,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
 
-__all__ = ["Method", "RECIPES", "MODES", "DEFAULT_MODE", "INGREDIENTS", "PLANE_CHOICES", "method_of", "recipe"]
+__all__ = ["Method", "RECIPES", "MODES", "DEFAULT_MODE", "INGREDIENTS", "OPTIONAL", "PLANE_CHOICES", "method_of", "recipe"]
 
 #: which clusters go to the vertical plane (Eq. 5-9): none (triangulation only; single
 #: tracklets dropped, opposite pairs triangulated), the single views and opposite pairs (the
@@ -91,15 +94,18 @@ class Method:
         return replace(self, **{ingredient: _OFF[ingredient]}, name=f"{self.name} -{ingredient}")
 
     def adding(self, ingredient: str, like: "Method | None" = None) -> "Method":
-        """This recipe with one ingredient as ``like`` (default: cascade+) has it (``<name> +<ingredient>``)."""
-        like = like or RECIPES["cascade+"]
-        return replace(self, **{ingredient: getattr(like, ingredient)}, name=f"{self.name} +{ingredient}")
+        """This recipe with one ingredient as ``like`` (default: cascade+, or on for one of
+        :data:`OPTIONAL`) has it (``<name> +<ingredient>``)."""
+        value = OPTIONAL[ingredient] if like is None and ingredient in OPTIONAL else getattr(like or RECIPES["cascade+"], ingredient)
+        return replace(self, **{ingredient: value}, name=f"{self.name} +{ingredient}")
 
 
 #: the value of each ingredient when it is off (the paper's choice)
 _OFF = {f.name: f.default for f in fields(Method) if f.name not in ("plane", "name")}
 #: cascade+'s ingredients beyond the paper, in the ablation's order
 INGREDIENTS: tuple[str, ...] = tuple(_OFF)
+#: ingredients built but left out of cascade+ (the benchmark showed no gain), with their value when on
+OPTIONAL: dict[str, object] = {"surfaces": True}
 
 #: the named recipes; a Tracker, the offline runners, batch and the command line take these names
 RECIPES: dict[str, Method] = {
