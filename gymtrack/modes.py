@@ -61,7 +61,9 @@ class Method:
         (``params.refine_plane`` or ``planes: auto``).
     surfaces: the scene's surfaces (the preset's, e.g. the pommel horse's horizontal support
         surface) join the planes in the plane stage (Eq. 5-9 unchanged: a cluster is fused on the
-        surface where its views agree best); without surfaces in the scene, nothing changes.
+        surface where its views agree best); without surfaces in the scene, nothing changes. Not in
+        cascade+ (:data:`OPTIONAL`): a camera nearly level with the body meets a horizontal surface
+        at a grazing angle, and an opposite pair always agrees best on the vertical plane.
     hold_seconds: how long a segment's end box is held beyond its last observation, capped at
         ``params.max_age`` frames; None: ``max_age`` frames (the paper's).
     handover: a track born where the target's track ended continues the target for Eq. 13
