@@ -78,6 +78,8 @@ class Apparatus:
     h_top, h_bot: Eq. 13 identification heights of the body's top and bottom.
     bars, blocks: solid parts (for drawing, occlusion and the simulator's motion).
     along_axis: True if the gymnast travels along x in the plane ``y = 0``.
+    body_half_depth: metres, half the body's extent across the plane (Eq. 14's body box in views
+        without a detection): a trunk's depth, or on pommel horse half a horizontal body's length.
     surfaces: ``(point, normal)`` of further scene surfaces where the vertical plane does not
         hold (the plane stage's candidates on them, as on the plane; the recipe's ``surfaces``).
     """
@@ -92,6 +94,7 @@ class Apparatus:
     bars: tuple[Bar, ...] = field(default_factory=tuple)
     blocks: tuple[Block, ...] = field(default_factory=tuple)
     surfaces: tuple[tuple[tuple[float, float, float], tuple[float, float, float]], ...] = ()
+    body_half_depth: float = 0.25
 
     @property
     def abbreviation(self) -> str:
@@ -120,6 +123,10 @@ PARALLEL_HEIGHT, PARALLEL_LENGTH, PARALLEL_SPACING = 2.0, 3.5, 0.47
 #: below the shoulders with the body in its shallow pike: ~1.4 m, a horizontal circle at nearly
 #: constant height about the hands (Section III-C's plane holds it only within the circle's radius)
 POMMEL_SUPPORT_CENTRE = 1.4
+#: pommel horse: in circles and flairs the body lies near horizontal and turns about the hands'
+#: vertical axis, so across the plane it reaches up to half its length from the centre (half a
+#: 1.6-1.7 m gymnast), not the trunk's depth of the other apparatus
+POMMEL_BODY_HALF_DEPTH = 0.8
 FOCUS_HEIGHT = 1.5  # a gymnast's centre on the apparatus: 1.25 m beam + ~0.9 m, bars' hang ~1.5-2 m
 
 
@@ -148,6 +155,7 @@ def _presets() -> dict[str, Apparatus]:
             ),
             blocks=(Block((-hl, -HORSE_WIDTH / 2, HORSE_HEIGHT - POMMEL_HEIGHT - 0.35), (hl, HORSE_WIDTH / 2, HORSE_HEIGHT - POMMEL_HEIGHT)),),
             surfaces=(((0.0, 0.0, POMMEL_SUPPORT_CENTRE), (0.0, 0.0, 1.0)),),
+            body_half_depth=POMMEL_BODY_HALF_DEPTH,
         ),
         "vault": Apparatus(
             "vault",

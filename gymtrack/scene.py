@@ -85,6 +85,8 @@ class Params(_Strict):
     )
     max_gap: int = Field(7, ge=0, description="target gaps up to this many frames are interpolated")
     box_scale: float = Field(1.3, ge=1.0, description="alpha of Eq. 14")
+    body_half_depth: float = Field(0.25, gt=0, description="metres: half the body's extent across the plane, for Eq. 14's "
+                                   "body box in views without a detection (default: the preset's; 0.8 on pommel horse)")
     opposite_angle_deg: float = Field(150.0, gt=90, le=180)
     # mode cascade+ (beyond the paper): two-view clusters fused with the plane by their uncertainty
     # (tracking.fusion). Off by default: on the default suite it meets the accuracy criteria of
@@ -162,6 +164,9 @@ class Scene(_Strict):
         if app.surfaces:
             merged["surfaces"] = [{"point": list(pt), "normal": list(nm)} for pt, nm in app.surfaces]
         merged.update({k: v for k, v in data.items()})
+        half_depth = app.body_half_depth  # the preset's Eq. 14 body box, unless the scene's params say
+        if half_depth != Params.model_fields["body_half_depth"].default and not isinstance(data.get("params"), Params):
+            merged["params"] = {"body_half_depth": half_depth, **(data.get("params") or {})}
         if isinstance(data.get("target"), dict):  # partial override of the preset heights
             merged["target"] = {"h_top": app.h_top, "h_bot": app.h_bot, **data["target"]}
         return merged

@@ -122,3 +122,30 @@ def test_without_surfaces_tracking_is_unchanged():
                 if isinstance(x, np.ndarray):
                     assert np.array_equal(x, y, equal_nan=x.dtype.kind == "f"), f.name
     assert on.tracks.frame.size > 0  # (with the surface it runs; whether it differs is the benchmark's)
+
+
+def _inside(inner, outer):
+    """Centre-form boxes: ``inner`` within ``outer``."""
+    return bool(np.all(inner[:2] - inner[2:] / 2 >= outer[:2] - outer[2:] / 2)
+                and np.all(inner[:2] + inner[2:] / 2 <= outer[:2] + outer[2:] / 2))
+
+
+def test_pommel_body_box_reaches_a_horizontal_body_across_the_plane():
+    """Eq. 14 in a view without a detection: a body lying across the horse's plane (a circle's
+    front or back, 1.6 m from head to toe along y) fits the body box of the preset's half-depth
+    (half its length), not the trunk's 0.25 m of the other apparatus."""
+    from gymtrack.tracking.target import buffered_boxes
+
+    assert Scene(apparatus="pommel_horse").params.body_half_depth == 0.8
+    assert Scene(apparatus="balance_beam").params.body_half_depth == 0.25
+    assert Scene(apparatus="pommel_horse", params={"body_half_depth": 0.3}).params.body_half_depth == 0.3
+    rig = ring_rig([40], radius=11.0, height=3.0, target=(0, 0, SUPPORT))
+    X = np.array([[0.0, 0.0, SUPPORT]])
+    true = person_boxes(rig[0], X[0], size=(0.4, 1.6, 0.3))
+    wh = np.full((1, 1, 2), np.nan)  # the view has no detection of the gymnast
+    fits = []
+    for half_depth in (0.25, Scene(apparatus="pommel_horse").params.body_half_depth):
+        box, ok = buffered_boxes(rig, X, X[:, 2] + 0.15, X[:, 2] - 0.15, wh, 1.3, {}, np.array([0.0, 1.0, 0.0]), half_depth)
+        assert ok[0, 0]
+        fits.append(_inside(true, box[0, 0]))
+    assert fits == [False, True]
