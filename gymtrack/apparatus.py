@@ -81,6 +81,10 @@ class Apparatus:
     turn_axis: the horizontal axis the apparatus' saltos, giants and dismounts turn about (the
         judging analysis' somersault axis); None: the plane's normal. The pommel horse's is its
         length: its dismounts go over the horse from a handstand across it, turning about the horse.
+    body_half_depth: metres, half the body's extent across the plane (Eq. 14's body box in views
+        without a detection): a trunk's depth, or on pommel horse half a horizontal body's length.
+    surfaces: ``(point, normal)`` of further scene surfaces where the vertical plane does not
+        hold (the plane stage's candidates on them, as on the plane; the recipe's ``surfaces``).
     """
 
     name: str
@@ -93,6 +97,8 @@ class Apparatus:
     bars: tuple[Bar, ...] = field(default_factory=tuple)
     blocks: tuple[Block, ...] = field(default_factory=tuple)
     turn_axis: tuple[float, float, float] | None = None
+    surfaces: tuple[tuple[tuple[float, float, float], tuple[float, float, float]], ...] = ()
+    body_half_depth: float = 0.25
 
     @property
     def somersault_axis(self) -> tuple[float, float, float]:
@@ -120,6 +126,16 @@ HIGH_BAR_HEIGHT, HIGH_BAR_LENGTH = 2.8, 2.4
 UNEVEN_HIGH, UNEVEN_LOW, UNEVEN_LENGTH = 2.5, 1.7, 2.4
 UNEVEN_HORIZONTAL_GAP = 1.5  # gives a 1.70 m diagonal, inside FIG's 1.3-1.8 m
 PARALLEL_HEIGHT, PARALLEL_LENGTH, PARALLEL_SPACING = 2.0, 3.5, 0.47
+#: pommel horse: the height of the body's centre in support (circles, flairs, scissors). The palms
+#: rest on the leather (~1.05 m), the shoulders ride an arm's length (about 0.38 of the body's
+#: height, Winter's segment table: 0.63 m for 1.65 m) above them, and the hips sit about 0.25 m
+#: below the shoulders with the body in its shallow pike: ~1.4 m, a horizontal circle at nearly
+#: constant height about the hands (Section III-C's plane holds it only within the circle's radius)
+POMMEL_SUPPORT_CENTRE = 1.4
+#: pommel horse: in circles and flairs the body lies near horizontal and turns about the hands'
+#: vertical axis, so across the plane it reaches up to half its length from the centre (half a
+#: 1.6-1.7 m gymnast), not the trunk's depth of the other apparatus
+POMMEL_BODY_HALF_DEPTH = 0.8
 FOCUS_HEIGHT = 1.5  # a gymnast's centre on the apparatus: 1.25 m beam + ~0.9 m, bars' hang ~1.5-2 m
 
 
@@ -148,6 +164,8 @@ def _presets() -> dict[str, Apparatus]:
             ),
             blocks=(Block((-hl, -HORSE_WIDTH / 2, HORSE_HEIGHT - POMMEL_HEIGHT - 0.35), (hl, HORSE_WIDTH / 2, HORSE_HEIGHT - POMMEL_HEIGHT)),),
             turn_axis=(1.0, 0.0, 0.0),  # n x z: the horse's length
+            surfaces=(((0.0, 0.0, POMMEL_SUPPORT_CENTRE), (0.0, 0.0, 1.0)),),
+            body_half_depth=POMMEL_BODY_HALF_DEPTH,
         ),
         "vault": Apparatus(
             "vault",

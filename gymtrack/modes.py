@@ -14,6 +14,9 @@ choices as plain arguments, so no stage tests a mode's name. :data:`RECIPES` nam
   handover and its ballistic flights; ray/plane fusion and
   online plane refinement where the scene asks for them).
 
+Ingredients built but not in cascade+ (:data:`OPTIONAL`: the benchmark showed no gain) are added
+by name, e.g. ``cascade+ +surfaces``.
+
 ``gymtrack benchmark --ablation`` switches cascade+'s ingredients off one at a time and adds
 each to the cascade (:data:`INGREDIENTS`). A plain module (no numpy), so that the command line can
 name the recipes without importing the tracker.
@@ -23,7 +26,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
 
-__all__ = ["Method", "RECIPES", "MODES", "DEFAULT_MODE", "INGREDIENTS", "PLANE_CHOICES", "method_of", "recipe"]
+__all__ = ["Method", "RECIPES", "MODES", "DEFAULT_MODE", "INGREDIENTS", "OPTIONAL", "PLANE_CHOICES", "method_of", "recipe"]
 
 #: which clusters go to the vertical plane (Eq. 5-9): none (triangulation only; single
 #: tracklets dropped, opposite pairs triangulated), the single views and opposite pairs (the
@@ -57,6 +60,11 @@ class Method:
     refine_plane: the apparatus plane refitted online from the tracker's own points
         (:mod:`gymtrack.tracking.plane_refine`), where the scene asks for it
         (``params.refine_plane`` or ``planes: auto``).
+    surfaces: the scene's surfaces (the preset's, e.g. the pommel horse's horizontal support
+        surface) join the planes in the plane stage (Eq. 5-9 unchanged: a cluster is fused on the
+        surface where its views agree best); without surfaces in the scene, nothing changes. Not in
+        cascade+ (:data:`OPTIONAL`): a camera nearly level with the body meets a horizontal surface
+        at a grazing angle, and an opposite pair always agrees best on the vertical plane.
     hold_seconds: how long a segment's end box is held beyond its last observation, capped at
         ``params.max_age`` frames; None: ``max_age`` frames (the paper's).
     handover: a track born where the target's track ended continues the target for Eq. 13
@@ -78,6 +86,7 @@ class Method:
     best_estimates: bool = False
     solo_inside: bool = False
     refine_plane: bool = False
+    surfaces: bool = False
     hold_seconds: float | None = None
     handover: bool = False
     ballistic: bool = False
@@ -92,15 +101,18 @@ class Method:
         return replace(self, **{ingredient: _OFF[ingredient]}, name=f"{self.name} -{ingredient}")
 
     def adding(self, ingredient: str, like: "Method | None" = None) -> "Method":
-        """This recipe with one ingredient as ``like`` (default: cascade+) has it (``<name> +<ingredient>``)."""
-        like = like or RECIPES["cascade+"]
-        return replace(self, **{ingredient: getattr(like, ingredient)}, name=f"{self.name} +{ingredient}")
+        """This recipe with one ingredient as ``like`` (default: cascade+, or on for one of
+        :data:`OPTIONAL`) has it (``<name> +<ingredient>``)."""
+        value = OPTIONAL[ingredient] if like is None and ingredient in OPTIONAL else getattr(like or RECIPES["cascade+"], ingredient)
+        return replace(self, **{ingredient: value}, name=f"{self.name} +{ingredient}")
 
 
 #: the value of each ingredient when it is off (the paper's choice)
 _OFF = {f.name: f.default for f in fields(Method) if f.name not in ("plane", "name")}
 #: cascade+'s ingredients beyond the paper, in the ablation's order
 INGREDIENTS: tuple[str, ...] = tuple(_OFF)
+#: ingredients built but left out of cascade+ (the benchmark showed no gain), with their value when on
+OPTIONAL: dict[str, object] = {"surfaces": True}
 
 #: the named recipes; a Tracker, the offline runners, batch and the command line take these names
 RECIPES: dict[str, Method] = {

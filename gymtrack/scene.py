@@ -1,7 +1,7 @@
 """The scene: the domain knowledge for one apparatus and venue, validated with pydantic.
 
 Paper: the performance space ``S_perf`` and buffer ``beta`` (Eq. 4), the vertical plane(s)
-(Eq. 7), the identification heights (Eq. 13) and every parameter of Section III-E. Defaults
+(Eq. 7) and further surfaces, the identification heights (Eq. 13) and every parameter of Section III-E. Defaults
 are the paper's values; an ``apparatus`` preset (:mod:`gymtrack.apparatus`) fills the keys the
 mapping leaves out, and keys in the mapping override the preset.
 
@@ -85,6 +85,8 @@ class Params(_Strict):
     )
     max_gap: int = Field(7, ge=0, description="target gaps up to this many frames are interpolated")
     box_scale: float = Field(1.3, ge=1.0, description="alpha of Eq. 14")
+    body_half_depth: float = Field(0.25, gt=0, description="metres: half the body's extent across the plane, for Eq. 14's "
+                                   "body box in views without a detection (default: the preset's; 0.8 on pommel horse)")
     opposite_angle_deg: float = Field(150.0, gt=90, le=180)
     # mode cascade+ (beyond the paper): two-view clusters fused with the plane by their uncertainty
     # (tracking.fusion). Off by default: on the default suite it meets the accuracy criteria of
@@ -121,6 +123,11 @@ class Scene(_Strict):
         "Default: the centre of the performance space"
     )
     planes: tuple[PlaneSpec, ...] = ()
+    surfaces: tuple[PlaneSpec, ...] = Field(
+        (), description="further surfaces the body's centre keeps to where the vertical plane does not hold "
+        "(e.g. the pommel horse's horizontal support surface); the plane stage uses them when the recipe's "
+        "``surfaces`` is on. Default: the preset's"
+    )
     auto_planes: bool = Field(False, description="``planes: auto`` in scene.yaml: the apparatus plane is fitted "
                               "from the data before tracking (the preset's planes, if any, are the starting guess)")
     target: TargetSpec = TargetSpec()
@@ -154,7 +161,12 @@ class Scene(_Strict):
             "target": {"h_top": app.h_top, "h_bot": app.h_bot},
             "focus": list(app.focus),
         }
+        if app.surfaces:
+            merged["surfaces"] = [{"point": list(pt), "normal": list(nm)} for pt, nm in app.surfaces]
         merged.update({k: v for k, v in data.items()})
+        half_depth = app.body_half_depth  # the preset's Eq. 14 body box, unless the scene's params say
+        if half_depth != Params.model_fields["body_half_depth"].default and not isinstance(data.get("params"), Params):
+            merged["params"] = {"body_half_depth": half_depth, **(data.get("params") or {})}
         if isinstance(data.get("target"), dict):  # partial override of the preset heights
             merged["target"] = {"h_top": app.h_top, "h_bot": app.h_bot, **data["target"]}
         return merged
@@ -207,6 +219,8 @@ class Scene(_Strict):
             del d["first_frame"], d["video_offsets"]
         if not d["frame_offsets"]:  # (files without offsets stay as they were)
             del d["frame_offsets"]
+        if not d["surfaces"]:  # (files without surfaces stay as they were)
+            del d["surfaces"]
         if d.pop("auto_planes"):
             d["planes"] = "auto"
         return d

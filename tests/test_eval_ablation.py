@@ -11,15 +11,18 @@ from typer.testing import CliRunner
 
 from gymtrack.cli import app
 from gymtrack.eval.ablation import SCENE_GATED, ablation_markdown, ablation_recipes, ablation_table
-from gymtrack.modes import INGREDIENTS, RECIPES
+from gymtrack.modes import INGREDIENTS, OPTIONAL, RECIPES
 
 
 def test_recipes_switch_each_ingredient_off_in_cascade_plus_and_on_in_cascade():
     recipes = ablation_recipes()
     names = [m.name for m in recipes]
     used = [i for i in INGREDIENTS if i not in SCENE_GATED]
-    assert names == (["cascade+"] + [f"cascade+ -{i}" for i in used] + ["cascade"] + [f"cascade +{i}" for i in used])
-    for i, m in zip(used, recipes[1:1 + len(used)]):  # exactly one field differs from cascade+
+    sign = {i: "+" if i in OPTIONAL else "-" for i in used}  # (an optional one is added to cascade+)
+    assert names == (["cascade+"] + [f"cascade+ {sign[i]}{i}" for i in used if i not in OPTIONAL]
+                     + [f"cascade+ +{i}" for i in used if i in OPTIONAL] + ["cascade"] + [f"cascade +{i}" for i in used])
+    order = [i for i in used if i not in OPTIONAL] + [i for i in used if i in OPTIONAL]
+    for i, m in zip(order, recipes[1:1 + len(used)]):  # exactly one field differs from cascade+
         diff = [f for f in INGREDIENTS if getattr(m, f) != getattr(RECIPES["cascade+"], f)]
         assert diff == [i]
     assert len(set(recipes)) == len(recipes)

@@ -55,7 +55,8 @@ def test_presets_give_a_valid_scene(name):
     for bar in app.bars:
         mid = (np.array(bar.start) + np.array(bar.end)) / 2
         assert np.all(mid >= lo) and np.all(mid <= hi)
-    assert scene.params == Params()  # the paper's defaults
+    # the paper's defaults, but the preset's body box across the plane (Eq. 14)
+    assert scene.params == Params(body_half_depth=app.body_half_depth)
 
 
 def test_tracking_space_grows_only_in_x_and_y():

@@ -15,7 +15,7 @@ import pytest
 
 from gymtrack.detections import Detections
 from gymtrack.errors import InputError
-from gymtrack.modes import DEFAULT_MODE, INGREDIENTS, MODES, RECIPES, Method, method_of
+from gymtrack.modes import DEFAULT_MODE, INGREDIENTS, MODES, OPTIONAL, RECIPES, Method, method_of
 from gymtrack.simulate.routine import simulate_routine
 from gymtrack.tracking import Tracker
 from gymtrack.tracking.offline import track_detections
@@ -74,10 +74,13 @@ def test_recipes_table_names_the_modes_and_cascade_plus_has_every_ingredient():
     assert MODES == ("cascade", "triangulation", "plane", "cascade+") and DEFAULT_MODE in MODES
     assert RECIPES["cascade"] == Method(name="cascade")  # the paper's method: every ingredient off
     assert (RECIPES["triangulation"].plane, RECIPES["plane"].plane, RECIPES["cascade"].plane) == ("none", "all", "rest")
-    for ing in INGREDIENTS:  # cascade+ is the cascade with each ingredient on
-        assert getattr(PLUS, ing) != getattr(RECIPES["cascade"], ing), ing
+    for ing in INGREDIENTS:  # cascade+ is the cascade with each ingredient on (but the optional ones)
+        on = OPTIONAL[ing] if ing in OPTIONAL else getattr(PLUS, ing)
+        assert (getattr(PLUS, ing) == getattr(RECIPES["cascade"], ing)) == (ing in OPTIONAL), ing
+        assert on != getattr(RECIPES["cascade"], ing), ing
         assert getattr(PLUS.without(ing), ing) == getattr(RECIPES["cascade"], ing)
-        assert getattr(RECIPES["cascade"].adding(ing), ing) == getattr(PLUS, ing)
+        assert getattr(RECIPES["cascade"].adding(ing), ing) == on
+        assert getattr(method_of(f"cascade+ +{ing}"), ing) == on
     assert PLUS.without("floor").name == "cascade+ -floor"
     with pytest.raises(ValueError):
         Method(plane="sideways")

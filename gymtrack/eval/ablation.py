@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from typing import Callable, Sequence
 
-from ..modes import INGREDIENTS, RECIPES, Method
+from ..modes import INGREDIENTS, OPTIONAL, RECIPES, Method
 from .aggregate import N_CAMS, averaged, present, speed
 
 __all__ = ["SCENE_GATED", "ablation_recipes", "ablation_table", "ablation_markdown"]
@@ -31,11 +31,15 @@ SCENE_GATED = ("fusion", "refine_plane")
 
 
 def ablation_recipes(ingredients: Sequence[str] = INGREDIENTS) -> list[Method]:
-    """cascade+, cascade+ without each ingredient, the cascade, the cascade with each ingredient
-    (scene-gated ingredients left out: on the preset scenes they change nothing)."""
+    """cascade+, cascade+ without each ingredient (with each of :data:`~gymtrack.modes.OPTIONAL`), the
+    cascade, the cascade with each ingredient (scene-gated ingredients left out: on the preset
+    scenes they change nothing)."""
     plus, cascade = RECIPES["cascade+"], RECIPES["cascade"]
     used = [i for i in ingredients if i not in SCENE_GATED]
-    return [plus, *(plus.without(i) for i in used), cascade, *(cascade.adding(i) for i in used)]
+    optional = [i for i in used if i in OPTIONAL]  # (not in cascade+: added to it, not taken away)
+    inside = [i for i in used if i not in OPTIONAL]
+    return [plus, *(plus.without(i) for i in inside), *(plus.adding(i) for i in optional), cascade,
+            *(cascade.adding(i) for i in used)]
 
 
 def ablation_table(rows: Sequence[dict], recipes: Sequence[Method], wildtrack: dict | None = None) -> list[dict]:

@@ -66,6 +66,7 @@ class TargetStage:
         self.h_top, self.h_bot = scene.target.h_top, scene.target.h_bot
         self.planes = [Plane.from_spec(s) for s in scene.planes]
         self.identify_frames, self.backfill_frames, self.box_scale = p.identify_frames, p.backfill_frames, p.box_scale
+        self.half_depth = p.body_half_depth  # Eq. 14's body box across the plane
         self.selector = TargetSelector(p.identify_frames)
         self.backfill = TargetBackfill(p.backfill_frames)
         self.smoother = TargetSmoother(p.max_gap)
@@ -179,7 +180,7 @@ class TargetStage:
             return self._none
         rows = TargetRows.concat(emitted)
         self.frames += len(rows)
-        return target_and_boxes(self.rig, rows, self.box_scale, self.memory, self.planes)
+        return target_and_boxes(self.rig, rows, self.box_scale, self.memory, self.planes, self.half_depth)
 
 
 def track_box_sizes(tracks, boxes: Detections, n_cameras: int) -> np.ndarray:
@@ -202,13 +203,14 @@ def track_box_sizes(tracks, boxes: Detections, n_cameras: int) -> np.ndarray:
 
 
 def target_and_boxes(rig: Rig, rows: TargetRows, box_scale: float, memory: dict,
-                     planes: Sequence[Plane] = ()) -> tuple[Target, Detections]:
+                     planes: Sequence[Plane] = (), half_depth: float | None = None) -> tuple[Target, Detections]:
     """Smoothed target rows -> the :class:`Target` and its Eq. 14 boxes in every view
     (:func:`buffered_boxes`; ``memory`` carries the body box's half-length between calls;
-    ``planes``: the scene's vertical planes, the body box follows the nearest)."""
+    ``planes``: the scene's vertical planes, the body box follows the nearest; ``half_depth``:
+    its half-depth across them, default :data:`BODY_HALF_DEPTH`)."""
     frame, tid, xyz, top, bot, src, wh = (rows.frame, rows.track_id, rows.xyz, rows.top_z, rows.bottom_z, rows.source,
                                           rows.wh)
-    box, ok = buffered_boxes(rig, xyz, top, bot, wh, box_scale, memory, nearest_normals(planes, xyz))
+    box, ok = buffered_boxes(rig, xyz, top, bot, wh, box_scale, memory, nearest_normals(planes, xyz), half_depth)
     n, c = np.nonzero(ok)
     return Target(frame, tid, xyz, src), Detections.from_arrays(frame[n], c, box[n, c], rig.names, track_id=tid[n])
 
@@ -245,6 +247,7 @@ def buffered_boxes(
     box_scale: float,
     memory: dict,
     normal: np.ndarray | None = None,
+    half_depth: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Eq. 14 boxes of the target in every view, for rows in frame order (see the module docstring).
 
@@ -253,7 +256,8 @@ def buffered_boxes(
     target's detection per view (NaN: none); box_scale: alpha; memory: dict carried between calls
     (``"half_length"``: the body box's last measured half-length); normal: (N, 3) or (3,) normal of
     the vertical plane the body box is aligned with, or None (no plane: a box as deep as long,
-    aligned with the world axes).
+    aligned with the world axes); half_depth: the body box's half-depth across the plane (default
+    :data:`BODY_HALF_DEPTH`; the scene's ``params.body_half_depth``).
 
     The body box: its half-length ``a`` along the plane is measured in every view with a
     detection -- a box of width ``w`` at depth ``z`` spans ``w z / f`` metres across the view's
@@ -279,7 +283,7 @@ def buffered_boxes(
         np.ascontiguousarray(xyz, dtype=np.float64), np.ascontiguousarray(top_z, dtype=np.float64),
         np.ascontiguousarray(bottom_z, dtype=np.float64), np.ascontiguousarray(wh, dtype=np.float64),
         np.ascontiguousarray(across), float(memory.get("half_length", BODY_HALF_DEPTH)), rig.arrays,
-        BodyBox(float(box_scale), BODY_HALF_DEPTH, normal is None, MIN_LENGTH_COS, MIN_HALF_LENGTH,
+        BodyBox(float(box_scale), BODY_HALF_DEPTH if half_depth is None else float(half_depth), normal is None, MIN_LENGTH_COS, MIN_HALF_LENGTH,
                 DEFAULT_HALF_HEIGHT))
     memory["half_length"] = float(last)
     return box, ok

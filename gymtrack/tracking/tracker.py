@@ -131,6 +131,9 @@ class Tracker:
         self.centres = rig.centres
         self.planes = [Plane.from_spec(s) for s in scene.planes]
         self.plane_arrays = PlaneArrays.from_planes(self.planes)  # the planes as the plane kernel takes them
+        # the recipe's surfaces: the scene's further surfaces join the planes in the plane stage only
+        self.surfaces = [Plane.from_spec(s) for s in scene.surfaces] if m.surfaces else []
+        self.stage_planes = PlaneArrays.from_planes(self.planes + self.surfaces)
         self.space = np.asarray(scene.tracking_space, dtype=np.float64)
         self.perf_space = np.asarray(scene.performance_space, dtype=np.float64)  # S_perf
         # (C, C) opposite camera pairs, judged at the scene's focus, the apparatus (see reconstruct)
@@ -281,6 +284,7 @@ class Tracker:
         if moved is not None:
             self.planes = [moved] + self.planes[1:]
             self.plane_arrays = PlaneArrays.from_planes(self.planes)
+            self.stage_planes = PlaneArrays.from_planes(self.planes + self.surfaces)
             self.target.planes = self.planes  # (Eq. 14's boxes follow the plane's normal)
             if self.fusion is not None:
                 self.fusion.set_planes(self.plane_arrays)
@@ -375,7 +379,7 @@ class Tracker:
         if not len(to_plane):
             return None, floor
         # Eq. 2's separations, the one-view continuation, Eq. 5-9, Eq. 4, one view only inside S_perf
-        pl = plane_split(segs, to_plane, D2, self.rig.arrays, self.plane_arrays, p, self.association == "oracle",
+        pl = plane_split(segs, to_plane, D2, self.rig.arrays, self.stage_planes, p, self.association == "oracle",
                          self.linker.prev_2d, self.linker.prev_seen, self.space, self._solo_space, self.counts,
                          self.method.outliers_at_mean)
         if pl is not None and self.fusion is not None:  # two-view plane tracklets fused with the plane (.fusion)

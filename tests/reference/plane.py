@@ -125,10 +125,23 @@ def candidates_numpy(segs, rig, planes):
     X = np.empty((3, P, K, segs.width, 3))
     status = np.empty((3, P, K, segs.width), np.int8)
     origins = rig.centres[segs.camera][:, None, :]
+    centre_dirs = ray_directions(rig, segs.camera, segs.points("centre"))
     for q, which in enumerate(("centre", "top", "bottom")):
         dirs = ray_directions(rig, segs.camera, segs.points(which))
         for p, plane in enumerate(planes):
-            X[q, p], status[q, p] = intersect_rays_plane(origins, dirs, plane)
+            if q == 0 or abs(plane.normal[2]) < 0.5:
+                X[q, p], status[q, p] = intersect_rays_plane(origins, dirs, plane)
+                continue
+            # a support surface: top / bottom on the vertical plane through the centre candidate,
+            # facing the camera (normal: the centre ray's horizontal part), one plane per point
+            for k in range(K):
+                for t in range(segs.width):
+                    h = centre_dirs[k, t] * [1.0, 1.0, 0.0]
+                    if not (np.isfinite(X[0, p, k, t]).all() and np.linalg.norm(h) > 0):
+                        X[q, p, k, t], status[q, p, k, t] = np.nan, RayPlaneStatus.PARALLEL
+                        continue
+                    X[q, p, k, t], status[q, p, k, t] = intersect_rays_plane(origins[k, 0], dirs[k, t],
+                                                                             Plane(X[0, p, k, t], h))
     return X, status
 
 

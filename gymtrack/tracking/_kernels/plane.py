@@ -15,7 +15,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ...geometry.primitives import RAY_OK, plane_offset, ray_direction, ray_plane
+from ...geometry.primitives import RAY_OK, RAY_PARALLEL, plane_offset, ray_direction, ray_plane
 from ..types import INTERPOLATED, PLANE
 from .clustering import NO_APART, NO_GROUP, complete_linkage, constraints
 from .reconstruct import outliers, outliers_at_mean
@@ -79,6 +79,26 @@ def candidate_distances(X, observed, camera, exists):
 
 
 
+#: a plane whose unit normal's |z| is below this (tilted less than 30 degrees off vertical: the
+#: apparatus planes, fitted or given) gives top and bottom as the paper does; above, a support surface
+SURFACE_Z = 0.5
+
+
+@njit(cache=True, inline="always")
+def _facing(box, back, c, k, t, o0, o1, o2, d0, d1, d2, dlen, centre, centre_ok, min_cos):
+    """Eq. 7 of the ray (o, d) with the vertical plane through ``centre`` whose normal is the
+    horizontal part of the box-centre ray of segment k at frame t (camera c)."""
+    if not centre_ok:
+        return RAY_PARALLEL, _NAN, _NAN, _NAN
+    h0, h1, _ = ray_direction(back, c, box[k, t, 0], box[k, t, 1])
+    hl = np.sqrt(h0 * h0 + h1 * h1)
+    if not hl > 0:
+        return RAY_PARALLEL, _NAN, _NAN, _NAN
+    h0, h1 = h0 / hl, h1 / hl
+    num = plane_offset(centre[0], centre[1], centre[2], h0, h1, 0.0, o0, o1, o2)
+    return ray_plane(o0, o1, o2, d0, d1, d2, dlen, num, h0, h1, 0.0, min_cos)
+
+
 @njit(cache=True, error_model="numpy")
 def plane_candidates(box, camera, rig, planes, min_cos):
     """Eq. 5-7 for the box centre, top-centre and bottom-centre of every segment, frame and plane
@@ -91,6 +111,10 @@ def plane_candidates(box, camera, rig, planes, min_cos):
     normal below it are parallel.
     Returns X (3, P, K, W, 3) (centre, top, bottom; NaN where there is no intersection) and
     ok (3, P, K, W) bool: the ray is not parallel (nor NaN / zero) and the plane is in front.
+
+    A surface far from vertical (``|n_z| >= SURFACE_Z``: a horizontal support surface) gives the centre only: the
+    top and bottom rays meet the vertical plane through that centre facing the camera (normal:
+    the centre ray's horizontal part), so their heights are the body's, not the surface's.
     """
     K, W = box.shape[0], box.shape[1]
     pp, pn = planes.point, planes.normal
@@ -111,8 +135,12 @@ def plane_candidates(box, camera, rig, planes, min_cos):
                 d0, d1, d2 = ray_direction(rig.back, c, u, v)
                 dlen = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
                 for p in range(P):
-                    status, x0, x1, x2 = ray_plane(o0, o1, o2, d0, d1, d2, dlen, num[p], pn[p, 0], pn[p, 1],
-                                                   pn[p, 2], min_cos)
+                    if q == 0 or abs(pn[p, 2]) < SURFACE_Z:
+                        status, x0, x1, x2 = ray_plane(o0, o1, o2, d0, d1, d2, dlen, num[p], pn[p, 0], pn[p, 1],
+                                                       pn[p, 2], min_cos)
+                    else:  # a surface's top / bottom: the vertical plane through its centre candidate
+                        status, x0, x1, x2 = _facing(box, rig.back, c, k, t, o0, o1, o2, d0, d1, d2, dlen,
+                                                     X[0, p, k, t], ok[0, p, k, t], min_cos)
                     if status == RAY_OK:
                         ok[q, p, k, t] = True
                         X[q, p, k, t, 0] = x0
