@@ -215,3 +215,30 @@ def test_flyaway_distribution_is_the_rules():
         p = dict(zip(k, p))
         assert max(p, key=p.get) == 2 and p.get(3, 0.0) <= 0.1 and sum(p.values()) == pytest.approx(1.0)
     assert 3 not in FLYAWAY_SALTOS["uneven_bars"][0]
+
+
+def test_held_handstand_is_still_and_inverted():
+    """A handstand held still is held; a giant passing its handstand at 180 deg/s is not; nor a still stand."""
+    from gymtrack.simulate.elements import held_handstand
+
+    n = 30
+    still = np.tile([0.0, 0.0, -1.0], (n, 1))  # A->S pointing down: inverted, not turning
+    assert held_handstand(still, np.full(n, 180.0), FPS)[3:-3].all()
+    ang = np.radians(180.0 + 6.0 * (np.arange(n) - n // 2))  # 6 deg a frame: 180 deg/s through the top
+    turning = np.column_stack([np.sin(ang), np.zeros(n), np.cos(ang)])
+    incl = np.degrees(np.arccos(turning[:, 2]))
+    assert not held_handstand(turning, incl, FPS).any()
+    assert not held_handstand(-still, np.zeros(n), FPS).any()  # upright and still: not a handstand
+
+
+@pytest.mark.parametrize("seed", [3, 7, 11])
+def test_pommel_dismount_counts_from_the_handstand(seed):
+    """The pommel horse's dismount leaves from a held handstand over the horse: its count starts at
+    that handstand (half a revolution to the stand), not at the circles' tilt before it."""
+    motion, _, kp, doc = _routine("pommel_horse", seed, 25.0)
+    dismount = [e for e in doc["elements"] if e["kind"] == "flight"][-1]
+    pre, post = dismount["upright_frames"]
+    assert abs(dismount["saltos"]) == 0.5
+    assert body_angles(kp)["inclination"][pre - 1] >= 150  # the handstand
+    # the pitch turned between the handstand and the stand: half a revolution (the simulator's own state)
+    assert abs(motion.pitch[post - 1] - motion.pitch[pre - 1]) == pytest.approx(np.pi, abs=np.radians(20))

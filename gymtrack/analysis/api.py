@@ -26,9 +26,9 @@ from ..poses import Poses3D
 from ..scene import Scene
 from . import elements as E
 from .filtering import CUTOFF_HZ, SUPPORT_CUTOFF_HZ, segment_cutoffs, segments
-from .flights import bridge_contacts, find_flights, flight_elements
+from .flights import bridge_contacts, find_flights, flight_elements, held_handstand
 from .joints import NEEDS, USED, gather, body_height
-from .kinematics import angle_sd, com_sd
+from .kinematics import angle_sd, com_sd, mid
 from .rotation import heading
 from .support import foot_height, hands_may_hold, scene_geometry, support as support_codes
 from .uncertainty import SAMPLES, measure_samples
@@ -204,7 +204,9 @@ def analyse(poses3d: Poses3D, scene: Scene, track_id: int | None = None, *, fps:
     fl, lifted = find_flights(frame, sup, fps, cols["com_z"][0], box_z, sigma_z, com0, hands_may_hold(Xf, J.sigma, geo))
     # the angles' sd on the filtered joints: the low-pass keeps about cutoff / (fps / 2) of white noise's variance
     keep = np.sqrt(min(1.0, min(cutoff_hz, 0.4 * fps) / (fps / 2))) if cutoff_hz else 1.0
-    fels = flight_elements(frame, cols, sup, fps, fl, angle_sd(Xf, J.sigma * keep))
+    axis = mid(Xf, "left_shoulder", "right_shoulder") - mid(Xf, "left_ankle", "right_ankle")  # A->S, the inclination's
+    held = held_handstand(frame, axis, cols["inclination"][0], fps)
+    fels = flight_elements(frame, cols, sup, fps, fl, angle_sd(Xf, J.sigma * keep), held)
     land_rows = [e.pop("_landing_row") for e in fels if "_landing_row" in e]
     els += fels
     feet_h = foot_height(Xf, height)

@@ -7,7 +7,11 @@ and ``twist_deg`` from the most upright frame of the 1.5 s before take-off to th
 after landing; saltos rounded to 0.25, twists to 0.5; shape tuck / pike / layout / open.
 Refinements (``docs/analysis.md``): the windows stop at a neighbouring flight; of the frames within
 :data:`UPRIGHT_TOL` of a window's most upright one, the one nearest the flight is taken (a turn to
-the judges after standing up is not the salto's twist).
+the judges after standing up is not the salto's twist). A flight that leaves from a handstand the
+body held (inclination at least :data:`HANDSTAND`, the long axis turning slower than
+:data:`STILL_DEG_S`) counts from that handstand where it is nearer the take-off than the upright
+frame: the rotation runs from the position the element starts from (a pommel horse dismount over
+the horse from handstand is half a revolution, not the quarters its circles' tilt would add).
 
 Measures are computed on every Monte Carlo sample at once: ``cols[name]`` is (S, M), row 0 the
 measurement, rows 1.. the samples (:mod:`.uncertainty`).
@@ -28,6 +32,9 @@ SHAPE_CLOSED, SHAPE_OPEN = 90.0, 135.0
 SHAPE_SDS = 2.0  #: a middle-half frame breaks a layout only this many sd under SHAPE_OPEN
 CONTACT_MAX_S = 0.1  #: s: a contact this short between airborne runs is bridged if it changed nothing
 V_MAX = 12.0  #: m/s: the centre of mass moves no faster (a sprinter's top speed; a vault's run-up reaches 8-9)
+HANDSTAND = 150.0  #: degrees: the contract's handstand (its hold position)
+STILL_DEG_S = 45.0  #: deg/s: a long axis turning slower than this holds its position (a giant passes its handstand at 150+)
+STILL_SPAN_S = 0.1  #: s: the turn rate over this much either side of a frame
 PARABOLA_CHI = 2.0  #: the centre of mass' weighted rms residual (in sd) within which one parabola holds
 
 
@@ -135,14 +142,35 @@ def find_flights(frame: np.ndarray, support: np.ndarray, fps: float, com_z: np.n
     return flights, lifted
 
 
-def _window_frame(frame, incl, rows, nearest_last: bool) -> int | None:
-    """The row of ``rows`` closest to upright (within UPRIGHT_TOL of the least inclination), the
-    one nearest the flight; None if no row has an inclination."""
+def held_handstand(frame: np.ndarray, axis: np.ndarray, incl: np.ndarray, fps: float) -> np.ndarray:
+    """(M,) bool: the body holds a handstand -- inclination at least :data:`HANDSTAND` and the long
+    axis ``axis`` (M, 3; A->S) turning slower than :data:`STILL_DEG_S` between the rows
+    :data:`STILL_SPAN_S` before and after (rows without both neighbours are not held)."""
+    k = max(1, int(round(STILL_SPAN_S * fps)))
+    out = np.zeros(len(frame), bool)
+    if len(frame) <= 2 * k:
+        return out
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u = axis / np.linalg.norm(axis, axis=-1, keepdims=True)
+        a, b = u[:-2 * k], u[2 * k:]
+        turn = np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1), np.sum(a * b, -1)))
+        rate = turn / ((frame[2 * k:] - frame[:-2 * k]) / fps)
+        out[k:-k] = (rate < STILL_DEG_S) & (incl[k:-k] >= HANDSTAND)
+    return out
+
+
+def _window_frame(frame, incl, rows, nearest_last: bool, held: np.ndarray | None = None) -> tuple[int | None, str]:
+    """The row of ``rows`` closest to upright (within UPRIGHT_TOL of the least inclination) or, with
+    ``held`` (M,) bool, in a held handstand: the one nearest the flight, and its position
+    (``upright`` | ``handstand``); None if no row has an inclination."""
     rows = rows[np.isfinite(incl[rows])]
     if rows.size == 0:
-        return None
+        return None, "upright"
     near = rows[incl[rows] <= incl[rows].min() + UPRIGHT_TOL]
-    return int(near[-1] if nearest_last else near[0])
+    if held is not None:
+        near = np.union1d(near, rows[held[rows]])
+    i = int(near[-1] if nearest_last else near[0])
+    return i, "handstand" if held is not None and held[i] and incl[i] >= HANDSTAND else "upright"
 
 
 def _crossing(t_a: float, z_a: float, v_a: float, coef: np.ndarray, lo: float, hi: float) -> float | None:
@@ -243,9 +271,11 @@ SHAPES = ("tuck", "pike", "layout", "open")
 
 
 def flight_elements(frame: np.ndarray, cols: dict, support: np.ndarray, fps: float,
-                    flights: list[tuple[int, int]], angle_sd: dict | None = None) -> list[dict]:
+                    flights: list[tuple[int, int]], angle_sd: dict | None = None, held: np.ndarray | None = None
+                    ) -> list[dict]:
     """The contract's flight records (plus ``<measure>_sd`` and the sub-frame fields) and, after a
-    flight ending on the floor, the landing's first-contact row (``_landing_row``)."""
+    flight ending on the floor, the landing's first-contact row (``_landing_row``). held: (M,) bool,
+    the rows of a held handstand (:func:`held_handstand`), a take-off position the count may start from."""
     out = []
     incl = cols["inclination"][0]
     win = int(round(WINDOW_S * fps))
@@ -255,7 +285,7 @@ def flight_elements(frame: np.ndarray, cols: dict, support: np.ndarray, fps: flo
         rows = np.arange(len(frame))
         pre = rows[(rows > prev_end) & (rows < a) & (frame >= frame[a] - win)]
         post = rows[(rows > b) & (rows < next_start) & (frame <= frame[b] + win)]
-        i0, i1 = _window_frame(frame, incl, pre, True), _window_frame(frame, incl, post, False)
+        (i0, pos0), (i1, _) = _window_frame(frame, incl, pre, True, held), _window_frame(frame, incl, post, False)
         el: dict = {"kind": "flight", "start_frame": int(frame[a]), "end_frame": int(frame[b]),
                     "duration_s": round((frame[b] - frame[a] + 1) / fps, 4)}
         missing: dict = {}
@@ -272,6 +302,7 @@ def flight_elements(frame: np.ndarray, cols: dict, support: np.ndarray, fps: flo
             el["rotation_window"] = "take-off" if i0 is None else "landing"
         i0, i1 = a if i0 is None else i0, b if i1 is None else i1
         el["rotation_from_frame"], el["rotation_to_frame"] = int(frame[i0]), int(frame[i1])
+        el["rotation_from_position"] = pos0 if i0 != a else "flight"
         vals["somersault_deg"] = som[:, i1] - som[:, i0]
         vals["twist_deg"] = tw[:, i1] - tw[:, i0]
         vals["airborne_somersault_deg"] = som[:, b] - som[:, a]

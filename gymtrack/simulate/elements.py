@@ -21,7 +21,11 @@ simulator's exact state, never to a measured skeleton:
   still ties to 1e-12 deg, and a giant passes the hang twice in 1.5 s; the nearest is the one the
   judges count); the windows stop at the neighbouring flights (a vault's hurdle, pre-flight and
   post-flight lie within 1.5 s: each counts only its own support phases, never another flight's
-  rotation). ``apex_z``, ``height_gain`` and ``distance`` are left out: the simulator has
+  rotation); a flight that leaves from a handstand the body held (inclination >= 150 deg, the
+  contract's handstand, the long axis A->S turning slower than :data:`STILL_DEG_S` over
+  :data:`STILL_SPAN_S` either side) counts from that handstand where it is nearer the take-off than
+  the upright frame: the rotation runs from the position the element starts from (the pommel
+  horse's dismount from handstand over the horse is half a revolution). ``apex_z``, ``height_gain`` and ``distance`` are left out: the simulator has
   no mass model, so its body centre is not the centre of mass.
 - landing: the choreography never steps after a landing: ``steps`` 0, ``stuck``.
 - hold: the still part (every true joint slower than 0.1 m/s, >= 1 s) of a held pose, extended
@@ -45,6 +49,9 @@ from ..apparatus import Apparatus
 
 UPRIGHT_WINDOW_S = 1.5  #: the contract's window before take-off and after landing
 UPRIGHT_TOL_DEG = 10.0  #: frames this close to the window's most upright one count as upright
+HANDSTAND_DEG = 150.0  #: the contract's handstand
+STILL_DEG_S = 45.0  #: deg/s: a long axis turning slower than this holds its position
+STILL_SPAN_S = 0.1  #: s: the turn rate over this much either side of a frame
 MIN_FLIGHT_S = 0.15
 HOLD_SPEED = 0.1  #: m/s
 MIN_HOLD_S = 1.0
@@ -76,7 +83,22 @@ def body_angles(kp: np.ndarray) -> dict[str, np.ndarray]:
     split = _included(kp[:, _LA] - kp[:, _LH], np.zeros_like(S), kp[:, _RA] - kp[:, _RH])
     axis = S - A
     incl = np.degrees(np.arccos(np.clip(axis[:, 2] / np.linalg.norm(axis, axis=1), -1.0, 1.0)))
-    return {"hip": hip, "knee": knee, "split": split, "inclination": incl}
+    return {"hip": hip, "knee": knee, "split": split, "inclination": incl, "axis": axis}
+
+
+def held_handstand(axis: np.ndarray, incl: np.ndarray, fps: float) -> np.ndarray:
+    """(n,) bool: a handstand held -- inclination >= :data:`HANDSTAND_DEG` and the long axis
+    ``axis`` (n, 3) turning slower than :data:`STILL_DEG_S` between the frames :data:`STILL_SPAN_S`
+    before and after (frames without both are not held)."""
+    k = max(1, int(round(STILL_SPAN_S * fps)))
+    out = np.zeros(len(incl), bool)
+    if len(incl) <= 2 * k:
+        return out
+    u = axis / np.linalg.norm(axis, axis=1, keepdims=True)
+    a, b = u[:-2 * k], u[2 * k:]
+    turn = np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=1), np.sum(a * b, 1)))
+    out[k:-k] = (turn * fps / (2 * k) < STILL_DEG_S) & (incl[k:-k] >= HANDSTAND_DEG)
+    return out
 
 
 def rotations(yaw: np.ndarray, pitch: np.ndarray, twist: np.ndarray, normal) -> tuple[np.ndarray, np.ndarray]:
@@ -119,22 +141,26 @@ def joint_rotations(kp: np.ndarray, normal) -> tuple[np.ndarray, np.ndarray]:
     return np.degrees(som - som[0]), np.degrees(tw - tw[0])
 
 
-def upright_frame(incl: np.ndarray, lo: int, hi: int, near: int) -> int | None:
+def upright_frame(incl: np.ndarray, lo: int, hi: int, near: int, held: np.ndarray | None = None) -> int | None:
     """The frame of ``lo..hi`` (clipped to the routine) closest to upright, by the contract's rule
-    with :data:`UPRIGHT_TOL_DEG`'s refinement (the nearest to ``near`` of the near-most-upright);
-    None where the window has no frame."""
+    with :data:`UPRIGHT_TOL_DEG`'s refinement (the nearest to ``near`` of the near-most-upright)
+    and, with ``held`` (n,) bool, the frames of a held handstand among the candidates; None where
+    the window has no frame."""
     lo, hi = max(lo, 0), min(hi, incl.size - 1)
     if hi < lo:
         return None
     w = incl[lo:hi + 1]
-    cand = np.flatnonzero(w <= np.nanmin(w) + UPRIGHT_TOL_DEG) + lo
+    ok = w <= np.nanmin(w) + UPRIGHT_TOL_DEG
+    if held is not None:
+        ok |= held[lo:hi + 1]
+    cand = np.flatnonzero(ok) + lo
     return int(cand[np.argmin(np.abs(cand - near))])
 
 
 def _flight(s: int, e: int, bounds: tuple[int, int], fps: float, ang: dict, som: np.ndarray, tw: np.ndarray) -> dict:
     win = int(round(UPRIGHT_WINDOW_S * fps))
     incl = ang["inclination"]
-    pre = upright_frame(incl, max(s - win, bounds[0]), s - 1, s - 1)
+    pre = upright_frame(incl, max(s - win, bounds[0]), s - 1, s - 1, held_handstand(ang["axis"], incl, fps))
     post = upright_frame(incl, e + 1, min(e + win, bounds[1]), e + 1)
     pre, post = (s if pre is None else pre), (e if post is None else post)
     som_deg, tw_deg = float(som[post] - som[pre]), float(tw[post] - tw[pre])

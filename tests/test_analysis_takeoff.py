@@ -1,0 +1,55 @@
+"""The flight's count from its take-off position: upright or hanging, or a handstand the body held."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from gymtrack.analysis.flights import flight_elements, held_handstand
+from gymtrack.analysis.support import FLOOR, NONE
+from gymtrack.simulate import elements as gt_elements
+
+FPS = 30.0
+
+
+def _pommel_like():
+    """Circles tilted 75 deg, a press to handstand, a held handstand, a half revolution over to the stand."""
+    som = np.concatenate([np.full(15, 75.0), np.linspace(75, 180, 10), np.full(15, 180.0),
+                          np.linspace(180, 360, 12)[1:-1], np.full(12, 360.0)])
+    incl = np.where(som <= 180, som, 360 - som)
+    M = som.size
+    rows = {"somersault": som, "inclination": incl, "twist": np.zeros(M), "com_x": np.zeros(M), "com_y": np.zeros(M),
+            "com_z": np.full(M, 1.0), "split": np.zeros(M)}
+    for side in ("left", "right"):
+        rows[f"{side}_hip"] = rows[f"{side}_knee"] = np.full(M, 175.0)
+    cols = {k: v[None] for k, v in rows.items()}
+    r = np.radians(som)  # A->S in the x-z plane, turning as the somersault
+    axis = np.column_stack([np.sin(r), np.zeros(M), np.cos(r)])
+    sup = np.full(M, FLOOR)
+    sup[40:50] = NONE
+    return np.arange(1, M + 1), cols, sup, axis, incl
+
+
+def test_a_flight_from_a_held_handstand_counts_from_it():
+    frame, cols, sup, axis, incl = _pommel_like()
+    held = held_handstand(frame, axis, incl, FPS)
+    assert held[27:37].all() and not held[:24].any() and not held[40:].any()
+    el = flight_elements(frame, cols, sup, FPS, [(40, 49)], held=held)[0]
+    assert el["saltos"] == 0.5 and el["rotation_from_position"] == "handstand"
+    assert 25 <= el["rotation_from_frame"] - 1 <= 39
+    # without the handstand among the take-off positions the circles' tilt is the most upright frame
+    el = flight_elements(frame, cols, sup, FPS, [(40, 49)])[0]
+    assert el["saltos"] == 0.75 and el["rotation_from_position"] == "upright"
+
+
+@pytest.mark.parametrize("rate", [0.0, 20.0, 90.0, 200.0])
+def test_held_handstand_agrees_with_the_ground_truths_rule(rate):
+    """The analysis' and the simulator's rules (two implementations) mark the same frames."""
+    n = 40
+    ang = np.radians(170.0 + rate / FPS * np.arange(n))
+    axis = np.column_stack([np.sin(ang), np.zeros(n), np.cos(ang)])
+    incl = np.degrees(np.arccos(np.clip(axis[:, 2], -1, 1)))
+    got = held_handstand(np.arange(n), axis, incl, FPS)
+    want = gt_elements.held_handstand(axis, incl, FPS)
+    assert np.array_equal(got, want)
+    assert got.any() == (rate < 45.0)
