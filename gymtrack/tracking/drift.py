@@ -30,6 +30,7 @@ import numpy as np
 
 from ..errors import GymtrackWarning
 from ..geometry.camera import Camera, Rig
+from ._kernels import drift as kernels
 
 __all__ = ["DriftMonitor", "turn_pixels", "fit_rotation"]
 
@@ -65,15 +66,6 @@ def fit_rotation(before: np.ndarray, after: np.ndarray) -> np.ndarray:
     return U @ np.diag([1.0, 1.0, d]) @ Vt
 
 
-def _nanmedian(a: np.ndarray) -> np.ndarray:
-    """Median over axis 1 ignoring NaN (NaN where all are): numpy's nanmedian is slow on small arrays."""
-    s = np.sort(a, axis=1)  # (NaN last)
-    n = np.isfinite(a).sum(axis=1, keepdims=True)
-    lo = np.take_along_axis(s, np.maximum(n - 1, 0) // 2, axis=1)
-    med = np.where(n % 2 == 1, lo, (lo + np.take_along_axis(s, np.minimum(n // 2, a.shape[1] - 1), axis=1)) / 2)
-    return np.where(n > 0, med, np.nan)[:, 0]
-
-
 def _degrees(R: np.ndarray) -> float:
     return float(np.degrees(np.arccos(np.clip((np.trace(R) - 1) / 2, -1, 1))))
 
@@ -106,13 +98,10 @@ class DriftMonitor:
         keep = ~np.asarray(opposite, bool)[pa, pb]
         self.pairs = (pa[keep], pb[keep])
         Np = len(self.pairs[0])
-        self.outside = np.ones((Np, C), bool)  # (Np, C) the views outside each pair
-        self.outside[np.arange(Np), self.pairs[0]] = False
-        self.outside[np.arange(Np), self.pairs[1]] = False
         L = self.n_base + self.n_recent
         self.meds = np.full((C * Np, L, 2), np.nan)  # per camera x pair: the last L samples' median residual
         self.frames = np.zeros(L, np.int64)  # each sample's last frame
-        self.points: list[list] = [[None] * L for _ in range(C * Np)]  # (world points, rays) of each sample
+        self.samples: list = [None] * L  # each sample's (start (C * Np + 1,), world points, where seen) by camera x pair
         self.last_frame = 0
         self.sums = np.zeros((C, 3))  # sync regression per camera: n, sum v.v, sum v.r
         self.events: list[dict] = []
@@ -135,73 +124,21 @@ class DriftMonitor:
         self.meds[:, -1] = np.nan
         self.frames[:-1] = self.frames[1:]
         self.frames[-1] = frame
-        for pts in self.points:
-            pts.pop(0)
-            pts.append(None)
-        members = members[(members >= 0).sum(axis=1) >= 3]
+        self.samples.pop(0)
+        self.samples.append(None)
         if len(members):
-            self._residuals(box, observed, members)
+            pa, pb = self.pairs
+            med, starts, X, seen, sums = kernels.residuals(box, observed, members, self.Kinv, self.Rt, self.centres, self.Pn,
+                                                           pa, pb, MAX_RESIDUAL, MIN_POINTS)
+            self.meds[:, -1] = med
+            self.samples[-1] = (starts, X, seen)
+            self.sums += sums
         self._check()
-
-    def _residuals(self, box: np.ndarray, observed: np.ndarray, members: np.ndarray) -> None:
-        has = members >= 0
-        idx = np.where(has, members, 0)
-        obs = observed[idx] & has[..., None]  # (M, C, W)
-        uv = box[idx][..., :2]  # (M, C, W, 2)
-        x = np.einsum("cij,mcwj->mcwi", self.Kinv[:, :2, :2], uv) + self.Kinv[None, :, None, :2, 2]  # (M, C, W, 2)
-        pa, pb = self.pairs
-        pair_ok = obs[:, pa] & obs[:, pb]  # (M, Np, W): the pair saw the point
-        m, p, w = np.nonzero(pair_ok)
-        if not len(m):
-            return
-        X = self._midpoints(x[m, pa[p], w], pa[p], x[m, pb[p], w], pb[p])  # (n, 3), each from one pair
-        i, cam = np.nonzero(obs[m, :, w] & self.outside[p])  # the views outside the pair that saw it
-        Xi = X[i]
-        pc = np.einsum("nij,nj->ni", self.Pn[cam][:, :, :3], Xi) + self.Pn[cam][:, :, 3]
-        seen = x[m[i], cam, w[i]]
-        r = seen - pc[:, :2] / pc[:, 2:]  # seen - predicted (radians, small angles)
-        ok = (pc[:, 2] > 0) & (np.abs(r).max(axis=1) < MAX_RESIDUAL)
-        # image velocity of the seen points (central differences inside the window): the sync regression
-        vel = np.full_like(x, np.nan)
-        vel[:, :, 1:-1] = np.where((obs[..., 2:] & obs[..., :-2])[..., None], (x[:, :, 2:] - x[:, :, :-2]) / 2, np.nan)
-        v = vel[m[i], cam, w[i]]
-        good = ok & np.isfinite(v[:, 0])
-        for j, col in enumerate((np.ones(good.sum()), (v[good] ** 2).sum(1), (v[good] * r[good]).sum(1))):
-            self.sums[:, j] += np.bincount(cam[good], col, minlength=self.C)
-        key = cam * len(pa) + p[i]
-        order = np.argsort(key[ok], kind="stable")
-        ks, rs, Xs, ss = key[ok][order], r[ok][order], X[i[ok]][order], seen[ok][order]
-        cut = np.flatnonzero(np.diff(ks)) + 1
-        for k, rr, XX, sn in zip(ks[np.r_[0, cut]], np.split(rs, cut), np.split(Xs, cut), np.split(ss, cut)):
-            if len(rr) >= MIN_POINTS:
-                self.meds[k, -1] = np.median(rr, axis=0)
-                self.points[k][-1] = (XX, sn)
-
-    def _midpoints(self, xa: np.ndarray, a: np.ndarray, xb: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """(n, 2) normalised points of views ``a`` (n,) and ``b`` (n,) -> (n, 3) midpoints of the rays'
-        closest approach (Eq. 3's two-view case, closed form)."""
-        da = np.einsum("nij,nj->ni", self.Rt[a][:, :, :2], xa) + self.Rt[a][:, :, 2]
-        db = np.einsum("nij,nj->ni", self.Rt[b][:, :, :2], xb) + self.Rt[b][:, :, 2]
-        w0 = self.centres[a] - self.centres[b]
-        aa, bb, cc = (da * da).sum(1), (da * db).sum(1), (db * db).sum(1)
-        d, e = (da * w0).sum(1), (db * w0).sum(1)
-        den = aa * cc - bb * bb
-        with np.errstate(invalid="ignore", divide="ignore"):
-            s, t = (bb * e - cc * d) / den, (aa * e - bb * d) / den
-        return (self.centres[a] + s[:, None] * da + self.centres[b] + t[:, None] * db) / 2
 
     def _steps(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per camera x pair: the step of the last second's median residual against the median of
         the seconds before (radians; 0 where not judged), its threshold, and the baseline (2,)."""
-        nb = self.n_base
-        base_meds, recent = self.meds[:, :nb], self.meds[:, nb:]
-        base = _nanmedian(base_meds)  # (Nk, 2)
-        scatter = 1.4826 * _nanmedian(np.linalg.norm(base_meds - base[:, None], axis=2))
-        dev = np.linalg.norm(recent - base[:, None], axis=2)  # (Nk, n_recent)
-        ready = (np.isfinite(base_meds[..., 0]).sum(1) >= nb - 1) & np.isfinite(dev).all(axis=1)
-        step = np.where(ready, np.nan_to_num(dev).min(axis=1), 0.0)  # every sample of the last second moved
-        thr = np.where(ready, np.maximum(np.radians(MIN_DEG), NOISE_FACTOR * np.nan_to_num(scatter)), np.inf)
-        return step, thr, base
+        return kernels.steps(self.meds, self.n_base, np.radians(MIN_DEG), NOISE_FACTOR)
 
     def _check(self) -> None:
         """A knock: the camera whose step (the smallest over the pairs that judge it) passes its
@@ -227,7 +164,8 @@ class DriftMonitor:
         frame = self.last_frame
         # the turn: the rotation fitted to the moved samples' points against the one fitted before
         # (which holds the calibration's own small error); a step that no rotation explains is not a knock
-        pts = self.points[k]
+        pts = [None if q is None or not np.isfinite(self.meds[k, j, 0]) else (q[1][q[0][k]:q[0][k + 1]], q[2][q[0][k]:q[0][k + 1]])
+               for j, q in enumerate(self.samples)]
         before, after = [q for q in pts[:first] if q is not None], [q for q in pts[first:] if q is not None]
         if not before or not after:
             return
@@ -247,8 +185,7 @@ class DriftMonitor:
                       f"({event['rotation_degrees']} deg) and applied from frame {frame + 1}" if self.recalibrate
                       else "recalibrate it"), GymtrackWarning, stacklevel=2)
         self.meds[:] = np.nan  # every camera's residuals moved with it: a new baseline after the move
-        for q in self.points:
-            q[:] = [None] * len(q)
+        self.samples = [None] * len(self.samples)
 
     def _refit(self, c: int, samples: list[tuple]) -> np.ndarray:
         """The rotation of camera ``c`` against its calibration, from the (n, 3) world points the

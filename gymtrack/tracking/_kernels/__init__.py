@@ -53,7 +53,7 @@ def drop_stale_cache() -> int:
 
 drop_stale_cache()
 
-from . import (clustering, exclusion, floor, fusion, linking, plane, reconstruct, records,  # noqa: E402
+from . import (clustering, drift, exclusion, floor, fusion, linking, plane, reconstruct, records,  # noqa: E402
                single_view, target, windows)  # (after the check)
 
 _WARM = False
@@ -66,7 +66,7 @@ def warm_up() -> None:
     if _WARM:
         return
     for module in (single_view, windows, clustering, reconstruct, linking, exclusion, records, plane, floor, fusion, target,
-                   primitives):
+                   drift, primitives):
         module.warm_up()
     # a full collection now, not during the first tracking call: after a first compile Python's
     # collector has the compiler's many objects to walk (a demo's first mode ran at 1/3 speed)
