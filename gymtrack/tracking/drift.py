@@ -1,7 +1,8 @@
 """The venue check: each camera's residuals watched for a knocked camera and for a camera out of sync.
 
-Beyond the paper, which assumes a fixed, synchronised rig (Section III-B). Every third window
-(:data:`EVERY_WINDOWS`) the tracker's clusters of three views or more give residuals: the point
+Beyond the paper, which assumes a fixed, synchronised rig (Section III-B). Each window's own
+frames (those before the next window's) pooled over three windows (:data:`EVERY_WINDOWS`, a
+sample): the tracker's clusters of three views or more give residuals: the point
 that one non-opposite *pair* of the other views triangulates (Eq. 3's two-view case, midpoint of
 the rays, normalised image coordinates), projected into a third view, minus where that view saw
 it -- an angle (radians) per camera, pair, point and frame. A camera is judged by each pair
@@ -36,8 +37,9 @@ __all__ = ["DriftMonitor", "turn_pixels", "fit_rotation"]
 
 BASELINE_SECONDS = 5.0  # the seconds of residuals before the last one: where the camera was
 RECENT_SECONDS = 1.0  # a camera's residual must have stepped away for this long
-EVERY_WINDOWS = 3  # windows between samples (residuals change slowly; keeps the check's cost small)
+EVERY_WINDOWS = 3  # windows pooled into a sample (enough points for a steady median)
 MIN_DEG = 0.3  # the smallest step reported (below: how much the box centres' agreement wanders)
+MIN_RADIANS = float(np.radians(MIN_DEG))
 NOISE_FACTOR = 3.0  # ... or this many times the scatter of one sample's median residual
 CONSISTENT = 2.0  # the fitted turn may be at most this many times the step (plus MIN_DEG)
 SEPARATION = 1.5  # the knocked camera's step against the largest of the others' (which it drags along)
@@ -91,19 +93,25 @@ class DriftMonitor:
         every = step * EVERY_WINDOWS  # frames between samples
         self.n_base = max(3, int(round(BASELINE_SECONDS * fps / every)))
         self.n_recent = max(2, int(round(RECENT_SECONDS * fps / every)))
-        self.step, self._windows = every, 0
+        self.step, self.window_step, self._windows = every, step, 0
+        self._rows: list = []  # the residual rows of the windows since the last sample
         # the view pairs that triangulate (not opposite: ill-conditioned there); a camera is judged
         # by the points of each pair without it (a knocked camera drags the pairs it is in)
         pa, pb = np.triu_indices(C, 1)
         keep = ~np.asarray(opposite, bool)[pa, pb]
         self.pairs = (pa[keep], pb[keep])
         Np = len(self.pairs[0])
+        # key c * Np + p: camera c judged by pair p; the keys each camera is involved in (judged, or in the pair)
+        self.key_camera = np.repeat(np.arange(C), Np)
+        key_pair = np.tile(np.arange(Np), C)
+        self.involves = np.stack([(self.key_camera == c) | (self.pairs[0][key_pair] == c) | (self.pairs[1][key_pair] == c)
+                                  for c in range(C)])  # (C, C * Np)
         L = self.n_base + self.n_recent
         self.meds = np.full((C * Np, L, 2), np.nan)  # per camera x pair: the last L samples' median residual
         self.frames = np.zeros(L, np.int64)  # each sample's last frame
         self.samples: list = [None] * L  # each sample's (start (C * Np + 1,), world points, where seen) by camera x pair
         self.last_frame = 0
-        self.sums = np.zeros((C, 3))  # sync regression per camera: n, sum v.v, sum v.r
+        self.sums = np.zeros((C * Np, 3))  # sync regression per camera x pair: n, sum v.v, sum v.r
         self.events: list[dict] = []
         self.turns: dict[int, tuple[int, np.ndarray]] = {}  # camera -> (from frame, rotation now vs calibrated)
         self.first: int | None = None
@@ -111,50 +119,70 @@ class DriftMonitor:
     # ------------------------------------------------------------ per window
     def observe(self, start: int, box: np.ndarray, observed: np.ndarray, members: np.ndarray) -> None:
         """One window: segments' undistorted boxes (K, W, 4), observed (K, W), clusters (M, C).
-        Every :data:`EVERY_WINDOWS`-th window is used (the residuals change slowly; the cost stays small)."""
+        Its residuals are kept; every :data:`EVERY_WINDOWS`-th window they are pooled into a sample."""
         if not self.active:
             return
         if self.first is None:
             self.first = start
         self._windows += 1
+        w_hi = min(observed.shape[1] - 1, 1 + self.window_step)  # each window's own frames (up to the next one's)
+        if len(members):
+            rows = kernels.residuals(box, observed, members, self.Kinv, self.Rt, self.centres, self.Pn, *self.pairs,
+                                     MAX_RESIDUAL, 1, w_hi)
+            self.sums += rows[4]
+            self._rows.append(rows[:4])
         if self._windows % EVERY_WINDOWS:
             return
-        self.last_frame = frame = start + observed.shape[1] - 1
+        self.last_frame = start + observed.shape[1] - 1
         self.meds[:, :-1] = self.meds[:, 1:]  # a new sample (NaN where a camera x pair has too few points)
         self.meds[:, -1] = np.nan
         self.frames[:-1] = self.frames[1:]
-        self.frames[-1] = frame
+        self.frames[-1] = start + w_hi - 1  # the sample's last frame
         self.samples.pop(0)
         self.samples.append(None)
-        if len(members):
-            pa, pb = self.pairs
-            med, starts, X, seen, sums = kernels.residuals(box, observed, members, self.Kinv, self.Rt, self.centres, self.Pn,
-                                                           pa, pb, MAX_RESIDUAL, MIN_POINTS)
+        if self._rows:  # the sample: the rows of its windows pooled
+            key, R, X, S = (np.concatenate(a) for a in zip(*self._rows)) if len(self._rows) > 1 else self._rows[0]
+            med, starts, X, S = kernels.medians(key, R, X, S, len(self.meds), MIN_POINTS)
             self.meds[:, -1] = med
-            self.samples[-1] = (starts, X, seen)
-            self.sums += sums
+            self.samples[-1] = (starts, X, S)
+            self._rows = []
         self._check()
 
     def _steps(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per camera x pair: the step of the last second's median residual against the median of
         the seconds before (radians; 0 where not judged), its threshold, and the baseline (2,)."""
-        return kernels.steps(self.meds, self.n_base, np.radians(MIN_DEG), NOISE_FACTOR)
+        return kernels.steps(self.meds, self.n_base, MIN_RADIANS, NOISE_FACTOR)
+
+    def _suspect(self, step_k: np.ndarray, thr_k: np.ndarray) -> tuple[int, int] | None:
+        """The knocked camera and its most moved key (camera x pair), or None. A knocked camera moves
+        the keys that involve it -- its own residuals, and the others' through the pairs it is in --
+        and no other: the camera whose involved keys' median step passes its threshold, clearly
+        more than any key not involving it."""
+        ready = np.isfinite(thr_k)
+        ratio = np.where(ready, step_k / np.where(ready, thr_k, 1.0), 0.0)
+        best, found = 0.0, None
+        for c in range(self.C):
+            inv = self.involves[c] & ready
+            own = inv & (self.key_camera == c)
+            if not own.any() or not inv.sum() >= 2:
+                continue
+            evidence = float(np.median(ratio[inv]))
+            clean = ratio[~self.involves[c] & ready]
+            margin = evidence / max(float(clean.max()) if len(clean) else 0.0, 1e-9)
+            if evidence > 1 and margin > SEPARATION and margin > best:
+                best, found = margin, (c, int(np.flatnonzero(own)[np.argmax(ratio[own])]))
+        return found
 
     def _check(self) -> None:
-        """A knock: the camera whose step (the smallest over the pairs that judge it) passes its
-        threshold and is clearly the largest."""
+        """A knock: the camera whose involved keys moved (:meth:`_suspect`), by a turn that a rotation
+        fitted to its points explains."""
         step_k, thr_k, base_k = self._steps()
-        Np = len(self.pairs[0])
-        ready = np.isfinite(thr_k).reshape(self.C, Np)
-        if ready.any(axis=1).sum() < 2:
+        if not (step_k > thr_k).any():  # (the usual sample: nothing moved)
             return
-        ratio_k = np.where(ready, (step_k / thr_k).reshape(self.C, Np), np.inf)
-        ratio = np.where(ready.any(axis=1), ratio_k.min(axis=1), 0.0)  # each camera: its least-moved pair
-        c = int(np.argmax(ratio))
-        others = np.delete(ratio, c)
-        if not ratio[c] > 1 or (len(others) and ratio[c] < SEPARATION * others.max()):
+        found = self._suspect(step_k, thr_k)
+        if found is None:
             return
-        k = c * Np + int(np.argmin(ratio_k[c]))
+        c, k = found
         dev = np.linalg.norm(self.meds[k] - base_k[k], axis=1)
         moved = dev > step_k[k] / 2  # (NaN: not moved)
         first = self.n_base  # the first sample of the run of moved samples reaching into the last second
@@ -241,10 +269,15 @@ class DriftMonitor:
         """Cameras whose residuals follow their points' motion: ``[{camera, offset, frames}]`` for a
         least-squares offset of ``min_frames`` or more (``offset`` as scene.yaml's frame_offsets)."""
         out = []
-        n, vv, vr = self.sums[:, 0], self.sums[:, 1], self.sums[:, 2]
+        own = np.stack([self.sums[self.key_camera == c].sum(axis=0) for c in range(self.C)])  # (C, 3)
+        clean = np.stack([self.sums[~self.involves[c]].sum(axis=0) for c in range(self.C)])
         with np.errstate(invalid="ignore", divide="ignore"):
-            o = -vr / vv
-        worst = int(np.nanargmax(np.abs(o))) if np.isfinite(o).any() else -1
+            o, o_clean = -own[:, 2] / own[:, 1], -clean[:, 2] / clean[:, 1]
+        # the camera out of sync drags the keys it is in, not the others: the largest own offset
+        # beyond what the keys not involving it show
+        score = np.where(np.isfinite(o), np.abs(o) - np.abs(np.nan_to_num(o_clean)), -np.inf)
+        worst = int(np.argmax(score)) if np.isfinite(score).any() else -1
+        n = own[:, 0]
         if worst >= 0 and abs(o[worst]) >= min_frames and n[worst] >= 50:
             out.append({"camera": self.rig.names[worst], "offset": int(np.round(o[worst])),
                         "estimate": round(float(o[worst]), 2), "points": int(n[worst])})

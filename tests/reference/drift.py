@@ -27,14 +27,14 @@ def _midpoints(Rt, centres, xa, a, xb, b):
     return (centres[a] + s[:, None] * da + centres[b] + t[:, None] * db) / 2
 
 
-def residuals_numpy(box, observed, members, Kinv, Rt, centres, Pn, pa, pb, max_residual, min_points):
-    """What the kernel returns, as {key: (median (2,), X (n, 3), seen (n, 2))} for the keys with
-    ``min_points`` or more, and the sync sums (C, 3)."""
+def residuals_numpy(box, observed, members, Kinv, Rt, centres, Pn, pa, pb, max_residual, min_points, w_lo, w_hi):
+    """What the kernels return for the window's frames ``w_lo .. w_hi - 1``, as {key: (median (2,), X (n, 3), seen (n, 2))} for the keys with
+    ``min_points`` or more, and the sync sums by key (C * Np, 3)."""
     C, Np = members.shape[1], len(pa)
     outside = np.ones((Np, C), bool)
     outside[np.arange(Np), pa] = False
     outside[np.arange(Np), pb] = False
-    sums, out = np.zeros((C, 3)), {}
+    sums, out = np.zeros((C * Np, 3)), {}
     members = members[(members >= 0).sum(axis=1) >= 3]
     if not len(members):
         return out, sums
@@ -44,6 +44,8 @@ def residuals_numpy(box, observed, members, Kinv, Rt, centres, Pn, pa, pb, max_r
     uv = box[idx][..., :2]
     x = np.einsum("cij,mcwj->mcwi", Kinv[:, :2, :2], uv) + Kinv[None, :, None, :2, 2]
     pair_ok = obs[:, pa] & obs[:, pb]
+    pair_ok[..., :w_lo] = False
+    pair_ok[..., w_hi:] = False
     m, p, w = np.nonzero(pair_ok)
     if not len(m):
         return out, sums
@@ -59,9 +61,9 @@ def residuals_numpy(box, observed, members, Kinv, Rt, centres, Pn, pa, pb, max_r
     vel[:, :, 1:-1] = np.where((obs[..., 2:] & obs[..., :-2])[..., None], (x[:, :, 2:] - x[:, :, :-2]) / 2, np.nan)
     v = vel[m[i], cam, w[i]]
     good = ok & np.isfinite(v[:, 0])
-    for j, col in enumerate((np.ones(good.sum()), (v[good] ** 2).sum(1), (v[good] * r[good]).sum(1))):
-        sums[:, j] += np.bincount(cam[good], col, minlength=C)
     key = cam * Np + p[i]
+    for j, col in enumerate((np.ones(good.sum()), (v[good] ** 2).sum(1), (v[good] * r[good]).sum(1))):
+        sums[:, j] += np.bincount(key[good], col, minlength=C * Np)
     for k in np.unique(key[ok]):
         sel = ok & (key == k)
         if sel.sum() >= min_points:
