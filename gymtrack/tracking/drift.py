@@ -160,6 +160,10 @@ class DriftMonitor:
         more than any key not involving it."""
         ready = np.isfinite(thr_k)
         ratio = np.where(ready, step_k / np.where(ready, thr_k, 1.0), 0.0)
+        inv = self.involves & ready
+        n_inv = inv.sum(axis=1)
+        if not ((2 * (inv & (ratio > 1)).sum(axis=1) >= n_inv) & (n_inv >= 2)).any():
+            return None  # (no camera has half its involved keys moved: no median above 1)
         best, found = 0.0, None
         for c in range(self.C):
             inv = self.involves[c] & ready
