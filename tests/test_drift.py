@@ -105,3 +105,20 @@ def test_kernels_match_the_numpy_reference_on_a_routines_windows(sim, monkeypatc
     meds[0] = np.nan
     for got, want in zip(kernels.steps(meds, 10, np.radians(0.3), 3.0), steps_numpy(meds, 10, np.radians(0.3), 3.0)):
         assert np.allclose(got, want, equal_nan=True, atol=1e-15)
+
+
+def test_on_by_default_and_a_clean_routines_outputs_unchanged(sim):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        on = track_detections(sim.rig, sim.scene, sim.detections, mode="cascade+")
+        off = track_detections(sim.rig, sim.scene, sim.detections, mode="cascade+", watch_cameras=False)
+    compared = 0
+    for name in ("tracks", "boxes", "target", "target_boxes"):
+        a, b = getattr(on, name), getattr(off, name)
+        for f in ("frame", "track_id", "xyz", "box"):
+            if hasattr(a, f):
+                compared += 1
+                assert np.array_equal(getattr(a, f), getattr(b, f), equal_nan=getattr(a, f).dtype.kind == "f"), (name, f)
+    assert compared >= 8 and len(on.tracks) > 100
+    drop = ("seconds", "seconds_total", "fps")
+    assert {k: v for k, v in on.summary.items() if k not in drop} == {k: v for k, v in off.summary.items() if k not in drop}

@@ -77,9 +77,8 @@ class DriftMonitor:
 
     rig: the cameras; fps: frames per second; step: frames between windows; opposite: (C, C) bool,
     the view pairs judged opposite (:func:`~gymtrack.geometry.views.opposite_pairs`); recalibrate:
-    re-estimate a knocked camera's rotation and correct its later boxes; active: watch at all (off,
-    the default of the tracker: it costs about a fifth of the tracking speed and its thresholds still
-    raise a rare false alarm on clean routines).
+    re-estimate a knocked camera's rotation and correct its later boxes; active: watch at all (the
+    tracker's default; nothing changes the outputs until a camera is found moved).
     """
 
     def __init__(self, rig: Rig, fps: float, step: int, opposite: np.ndarray, recalibrate: bool = True,
