@@ -5,8 +5,9 @@ frames (those before the next window's) pooled over three windows (:data:`EVERY_
 sample): the tracker's clusters of three views or more give residuals: the point
 that one non-opposite *pair* of the other views triangulates (Eq. 3's two-view case, midpoint of
 the rays, normalised image coordinates), projected into a third view, minus where that view saw
-it -- an angle (radians) per camera, pair, point and frame. A camera is judged by each pair
-without it, and by its least-moved pair, so that a knocked camera does not drag the others.
+it -- an angle (radians) per camera, pair, point and frame (a *key*: camera x pair). A knocked
+or late camera moves the keys it is involved in (its own, and the others' through the pairs it is
+in) and no other: the camera whose involved keys moved, against the keys not involving it, is named.
 
 - A knocked camera (turned about its centre) moves all its points by the same angle: its median
   residual over the last second steps away from its median of the five seconds before, clearly
