@@ -10,7 +10,8 @@ Usage::
 
 A four-camera routine is simulated once (``gymtrack.simulate``; every view sees 5-20 people:
 gymnast, coaches, judges, other gymnasts, spectators, plus false positives); both modes then
-track the same detections ``--repeat`` times (``cascade+`` without and with ``params.fuse_plane``) and the best time counts (the machine is shared,
+track the same detections ``--repeat`` times (``cascade+`` without and with ``params.fuse_plane``, and with
+the venue check, ``watch_cameras``) and the best time counts (the machine is shared,
 the minimum is the least disturbed run); wall time and this process's CPU time are both shown --
 with other jobs on a 2-core machine the CPU time is the fairer figure. ``--profile`` prints a pyinstrument profile of
 one cascade run: where the time goes.
@@ -37,13 +38,15 @@ def boxes_per_view(det, n_cameras: int) -> tuple[float, int, int]:
 
 def timed(rig, scene, det, mode: str) -> tuple[float, float, dict]:
     """Wall time and CPU time (this process only: robust to other jobs on the machine) of one run."""
+    watch = mode.endswith(" watch")  # cascade+ with the venue check (watch_cameras) on
+    mode = mode[:-6] if watch else mode
     if mode.endswith(" fuse"):  # cascade+ with the ray-plane fusion switched on (params.fuse_plane)
         mode = mode[:-5]
         scene = scene.model_copy(update={"params": scene.params.model_copy(update={"fuse_plane": True})})
     elif mode == "cascade+":
         scene = scene.model_copy(update={"params": scene.params.model_copy(update={"fuse_plane": False})})
     t0, c0 = time.perf_counter(), time.process_time()
-    res = track_detections(rig, scene, det, mode=mode)
+    res = track_detections(rig, scene, det, mode=mode, watch_cameras=watch)
     return time.perf_counter() - t0, time.process_time() - c0, res.summary
 
 
@@ -66,7 +69,7 @@ def main() -> None:
     frames = sim.n_frames
     print(f"routine: {args.apparatus}, {len(rig)} cameras, {frames} frames, {len(det)} boxes, "
           f"{mean:.1f} boxes per view and frame (min {lo}, max {hi})")
-    modes = ("cascade", "cascade+", "cascade+ fuse", "triangulation")
+    modes = ("cascade", "cascade+", "cascade+ fuse", "cascade+ watch", "triangulation")
     best = {m: (np.inf, np.inf, {}) for m in modes}
     for _ in range(args.repeat):  # interleaved, so that both modes see the same machine load
         for mode in modes:
@@ -82,7 +85,8 @@ def main() -> None:
               f"\n               ms per frame by stage: {stages}")
     ratio = fps["cascade"] / fps["triangulation"]
     print(f"cascade / triangulation speed: {ratio:.2f}; cascade+ / triangulation: {fps['cascade+'] / fps['triangulation']:.2f}"
-          f"; cascade+ fuse (params.fuse_plane) / triangulation: {fps['cascade+ fuse'] / fps['triangulation']:.2f}")
+          f"; cascade+ fuse (params.fuse_plane) / triangulation: {fps['cascade+ fuse'] / fps['triangulation']:.2f}"
+          f"; cascade+ watch (the venue check) / cascade+, CPU: {cpu_fps['cascade+ watch'] / cpu_fps['cascade+']:.3f}")
     print(f"targets: cascade >= 1000 frames/s: {'met' if fps['cascade'] >= 1000 else 'NOT met'}; "
           f"cascade >= 0.9 x triangulation: {'met' if ratio >= 0.9 else 'NOT met'}")
     if args.profile:

@@ -62,3 +62,63 @@ def test_unsynchronised_camera_named_with_its_direction(sim):
     sus = res.summary["camera_out_of_sync"]
     assert sus[0]["camera"] == "cam2" and 1 <= sus[0]["offset"] <= 4
     assert any("cam2" in m and "out of sync" in m for m in msgs)
+
+
+def test_kernels_match_the_numpy_reference_on_a_routines_windows(sim, monkeypatch):
+    """The compiled residuals and steps against their numpy reference, on every window the
+    tracker hands the monitor in a knocked routine (the windows captured as they come)."""
+    from gymtrack.tracking import drift
+    from gymtrack.tracking._kernels import drift as kernels
+    from reference.drift import residuals_numpy, steps_numpy
+
+    seen, mon = [], []
+    orig = drift.DriftMonitor.observe
+
+    def capture(self, start, box, observed, members):
+        seen.append((box.copy(), observed.copy(), members.copy()))
+        mon[:] = [self]
+        orig(self, start, box, observed, members)
+
+    monkeypatch.setattr(drift.DriftMonitor, "observe", capture)
+    _track(sim, knock_camera(sim.detections, sim.rig[3], 3, 300, knock_rotation(1.0, seed=4)))
+    m = mon[0]
+    pa, pb = m.pairs
+    judged = 0
+    for box, observed, members in seen:
+        key, R, X, S, sums = kernels.residuals(box, observed, members, m.Kinv, m.Rt, m.centres, m.Pn, pa, pb,
+                                               drift.MAX_RESIDUAL, 1, 6)
+        med, start, X, S = kernels.medians(key, R, X, S, m.C * len(pa), drift.MIN_POINTS)
+        want, want_sums = residuals_numpy(box, observed, members, m.Kinv, m.Rt, m.centres, m.Pn, pa, pb,
+                                          drift.MAX_RESIDUAL, drift.MIN_POINTS, 1, 6)
+        assert sorted(want) == np.flatnonzero(np.isfinite(med[:, 0])).tolist()
+        assert np.allclose(sums, want_sums, rtol=1e-9, atol=1e-12)
+        for k, (wm, wX, wS) in want.items():
+            sl = slice(start[k], start[k + 1])
+            assert np.allclose(med[k], wm, atol=1e-12)
+            # the same points, each pair's in the same order
+            assert np.allclose(X[sl], wX, atol=1e-9) and np.allclose(S[sl], wS, atol=1e-12)
+        judged += len(want)
+    assert judged > 50
+    rng = np.random.default_rng(1)
+    meds = rng.normal(scale=0.003, size=(12, 12, 2))
+    meds[rng.random((12, 12)) < 0.15] = np.nan
+    meds[0] = np.nan
+    for got, want in zip(kernels.steps(meds, 10, np.radians(0.3), 3.0), steps_numpy(meds, 10, np.radians(0.3), 3.0)):
+        assert np.allclose(got, want, equal_nan=True, atol=1e-15)
+
+
+def test_on_by_default_and_a_clean_routines_outputs_unchanged(sim):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        on = track_detections(sim.rig, sim.scene, sim.detections, mode="cascade+")
+        off = track_detections(sim.rig, sim.scene, sim.detections, mode="cascade+", watch_cameras=False)
+    compared = 0
+    for name in ("tracks", "boxes", "target", "target_boxes"):
+        a, b = getattr(on, name), getattr(off, name)
+        for f in ("frame", "track_id", "xyz", "box"):
+            if hasattr(a, f):
+                compared += 1
+                assert np.array_equal(getattr(a, f), getattr(b, f), equal_nan=getattr(a, f).dtype.kind == "f"), (name, f)
+    assert compared >= 8 and len(on.tracks) > 100
+    drop = ("seconds", "seconds_total", "fps")
+    assert {k: v for k, v in on.summary.items() if k not in drop} == {k: v for k, v in off.summary.items() if k not in drop}

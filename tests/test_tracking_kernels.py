@@ -23,7 +23,7 @@ from conftest import make_detections, ring_rig, simple_scene
 
 def signatures() -> dict[str, int]:
     mods = (_kernels.single_view, _kernels.windows, _kernels.clustering, _kernels.reconstruct, _kernels.linking,
-            _kernels.plane, _kernels.target, primitives)
+            _kernels.plane, _kernels.target, _kernels.drift, primitives)
     return {f"{m.__name__}.{name}": len(f.signatures) for m in mods for name, f in vars(m).items()
             if isinstance(f, CPUDispatcher)}
 

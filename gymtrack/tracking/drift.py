@@ -1,11 +1,13 @@
 """The venue check: each camera's residuals watched for a knocked camera and for a camera out of sync.
 
-Beyond the paper, which assumes a fixed, synchronised rig (Section III-B). Every third window
-(:data:`EVERY_WINDOWS`) the tracker's clusters of three views or more give residuals: the point
+Beyond the paper, which assumes a fixed, synchronised rig (Section III-B). Each window's own
+frames (those before the next window's) pooled over three windows (:data:`EVERY_WINDOWS`, a
+sample): the tracker's clusters of three views or more give residuals: the point
 that one non-opposite *pair* of the other views triangulates (Eq. 3's two-view case, midpoint of
 the rays, normalised image coordinates), projected into a third view, minus where that view saw
-it -- an angle (radians) per camera, pair, point and frame. A camera is judged by each pair
-without it, and by its least-moved pair, so that a knocked camera does not drag the others.
+it -- an angle (radians) per camera, pair, point and frame (a *key*: camera x pair). A knocked
+or late camera moves the keys it is involved in (its own, and the others' through the pairs it is
+in) and no other: the camera whose involved keys moved, against the keys not involving it, is named.
 
 - A knocked camera (turned about its centre) moves all its points by the same angle: its median
   residual over the last second steps away from its median of the five seconds before, clearly
@@ -30,13 +32,15 @@ import numpy as np
 
 from ..errors import GymtrackWarning
 from ..geometry.camera import Camera, Rig
+from ._kernels import drift as kernels
 
 __all__ = ["DriftMonitor", "turn_pixels", "fit_rotation"]
 
 BASELINE_SECONDS = 5.0  # the seconds of residuals before the last one: where the camera was
 RECENT_SECONDS = 1.0  # a camera's residual must have stepped away for this long
-EVERY_WINDOWS = 3  # windows between samples (residuals change slowly; keeps the check's cost small)
+EVERY_WINDOWS = 3  # windows pooled into a sample (enough points for a steady median)
 MIN_DEG = 0.3  # the smallest step reported (below: how much the box centres' agreement wanders)
+MIN_RADIANS = float(np.radians(MIN_DEG))
 NOISE_FACTOR = 3.0  # ... or this many times the scatter of one sample's median residual
 CONSISTENT = 2.0  # the fitted turn may be at most this many times the step (plus MIN_DEG)
 SEPARATION = 1.5  # the knocked camera's step against the largest of the others' (which it drags along)
@@ -65,15 +69,6 @@ def fit_rotation(before: np.ndarray, after: np.ndarray) -> np.ndarray:
     return U @ np.diag([1.0, 1.0, d]) @ Vt
 
 
-def _nanmedian(a: np.ndarray) -> np.ndarray:
-    """Median over axis 1 ignoring NaN (NaN where all are): numpy's nanmedian is slow on small arrays."""
-    s = np.sort(a, axis=1)  # (NaN last)
-    n = np.isfinite(a).sum(axis=1, keepdims=True)
-    lo = np.take_along_axis(s, np.maximum(n - 1, 0) // 2, axis=1)
-    med = np.where(n % 2 == 1, lo, (lo + np.take_along_axis(s, np.minimum(n // 2, a.shape[1] - 1), axis=1)) / 2)
-    return np.where(n > 0, med, np.nan)[:, 0]
-
-
 def _degrees(R: np.ndarray) -> float:
     return float(np.degrees(np.arccos(np.clip((np.trace(R) - 1) / 2, -1, 1))))
 
@@ -83,9 +78,8 @@ class DriftMonitor:
 
     rig: the cameras; fps: frames per second; step: frames between windows; opposite: (C, C) bool,
     the view pairs judged opposite (:func:`~gymtrack.geometry.views.opposite_pairs`); recalibrate:
-    re-estimate a knocked camera's rotation and correct its later boxes; active: watch at all (off,
-    the default of the tracker: it costs about a fifth of the tracking speed and its thresholds still
-    raise a rare false alarm on clean routines).
+    re-estimate a knocked camera's rotation and correct its later boxes; active: watch at all (the
+    tracker's default; nothing changes the outputs until a camera is found moved).
     """
 
     def __init__(self, rig: Rig, fps: float, step: int, opposite: np.ndarray, recalibrate: bool = True,
@@ -99,22 +93,25 @@ class DriftMonitor:
         every = step * EVERY_WINDOWS  # frames between samples
         self.n_base = max(3, int(round(BASELINE_SECONDS * fps / every)))
         self.n_recent = max(2, int(round(RECENT_SECONDS * fps / every)))
-        self.step, self._windows = every, 0
+        self.step, self.window_step, self._windows = every, step, 0
+        self._rows: list = []  # the residual rows of the windows since the last sample
         # the view pairs that triangulate (not opposite: ill-conditioned there); a camera is judged
         # by the points of each pair without it (a knocked camera drags the pairs it is in)
         pa, pb = np.triu_indices(C, 1)
         keep = ~np.asarray(opposite, bool)[pa, pb]
         self.pairs = (pa[keep], pb[keep])
         Np = len(self.pairs[0])
-        self.outside = np.ones((Np, C), bool)  # (Np, C) the views outside each pair
-        self.outside[np.arange(Np), self.pairs[0]] = False
-        self.outside[np.arange(Np), self.pairs[1]] = False
+        # key c * Np + p: camera c judged by pair p; the keys each camera is involved in (judged, or in the pair)
+        self.key_camera = np.repeat(np.arange(C), Np)
+        key_pair = np.tile(np.arange(Np), C)
+        self.involves = np.stack([(self.key_camera == c) | (self.pairs[0][key_pair] == c) | (self.pairs[1][key_pair] == c)
+                                  for c in range(C)])  # (C, C * Np)
         L = self.n_base + self.n_recent
         self.meds = np.full((C * Np, L, 2), np.nan)  # per camera x pair: the last L samples' median residual
         self.frames = np.zeros(L, np.int64)  # each sample's last frame
-        self.points: list[list] = [[None] * L for _ in range(C * Np)]  # (world points, rays) of each sample
+        self.samples: list = [None] * L  # each sample's (start (C * Np + 1,), world points, where seen) by camera x pair
         self.last_frame = 0
-        self.sums = np.zeros((C, 3))  # sync regression per camera: n, sum v.v, sum v.r
+        self.sums = np.zeros((C * Np, 3))  # sync regression per camera x pair: n, sum v.v, sum v.r
         self.events: list[dict] = []
         self.turns: dict[int, tuple[int, np.ndarray]] = {}  # camera -> (from frame, rotation now vs calibrated)
         self.first: int | None = None
@@ -122,102 +119,74 @@ class DriftMonitor:
     # ------------------------------------------------------------ per window
     def observe(self, start: int, box: np.ndarray, observed: np.ndarray, members: np.ndarray) -> None:
         """One window: segments' undistorted boxes (K, W, 4), observed (K, W), clusters (M, C).
-        Every :data:`EVERY_WINDOWS`-th window is used (the residuals change slowly; the cost stays small)."""
+        Its residuals are kept; every :data:`EVERY_WINDOWS`-th window they are pooled into a sample."""
         if not self.active:
             return
         if self.first is None:
             self.first = start
         self._windows += 1
+        w_hi = min(observed.shape[1] - 1, 1 + self.window_step)  # each window's own frames (up to the next one's)
+        if len(members):
+            rows = kernels.residuals(box, observed, members, self.Kinv, self.Rt, self.centres, self.Pn, *self.pairs,
+                                     MAX_RESIDUAL, 1, w_hi)
+            self.sums += rows[4]
+            self._rows.append(rows[:4])
         if self._windows % EVERY_WINDOWS:
             return
-        self.last_frame = frame = start + observed.shape[1] - 1
+        self.last_frame = start + observed.shape[1] - 1
         self.meds[:, :-1] = self.meds[:, 1:]  # a new sample (NaN where a camera x pair has too few points)
         self.meds[:, -1] = np.nan
         self.frames[:-1] = self.frames[1:]
-        self.frames[-1] = frame
-        for pts in self.points:
-            pts.pop(0)
-            pts.append(None)
-        members = members[(members >= 0).sum(axis=1) >= 3]
-        if len(members):
-            self._residuals(box, observed, members)
+        self.frames[-1] = start + w_hi - 1  # the sample's last frame
+        self.samples.pop(0)
+        self.samples.append(None)
+        if self._rows:  # the sample: the rows of its windows pooled
+            key, R, X, S = (np.concatenate(a) for a in zip(*self._rows)) if len(self._rows) > 1 else self._rows[0]
+            med, starts, X, S = kernels.medians(key, R, X, S, len(self.meds), MIN_POINTS)
+            self.meds[:, -1] = med
+            self.samples[-1] = (starts, X, S)
+            self._rows = []
         self._check()
-
-    def _residuals(self, box: np.ndarray, observed: np.ndarray, members: np.ndarray) -> None:
-        has = members >= 0
-        idx = np.where(has, members, 0)
-        obs = observed[idx] & has[..., None]  # (M, C, W)
-        uv = box[idx][..., :2]  # (M, C, W, 2)
-        x = np.einsum("cij,mcwj->mcwi", self.Kinv[:, :2, :2], uv) + self.Kinv[None, :, None, :2, 2]  # (M, C, W, 2)
-        pa, pb = self.pairs
-        pair_ok = obs[:, pa] & obs[:, pb]  # (M, Np, W): the pair saw the point
-        m, p, w = np.nonzero(pair_ok)
-        if not len(m):
-            return
-        X = self._midpoints(x[m, pa[p], w], pa[p], x[m, pb[p], w], pb[p])  # (n, 3), each from one pair
-        i, cam = np.nonzero(obs[m, :, w] & self.outside[p])  # the views outside the pair that saw it
-        Xi = X[i]
-        pc = np.einsum("nij,nj->ni", self.Pn[cam][:, :, :3], Xi) + self.Pn[cam][:, :, 3]
-        seen = x[m[i], cam, w[i]]
-        r = seen - pc[:, :2] / pc[:, 2:]  # seen - predicted (radians, small angles)
-        ok = (pc[:, 2] > 0) & (np.abs(r).max(axis=1) < MAX_RESIDUAL)
-        # image velocity of the seen points (central differences inside the window): the sync regression
-        vel = np.full_like(x, np.nan)
-        vel[:, :, 1:-1] = np.where((obs[..., 2:] & obs[..., :-2])[..., None], (x[:, :, 2:] - x[:, :, :-2]) / 2, np.nan)
-        v = vel[m[i], cam, w[i]]
-        good = ok & np.isfinite(v[:, 0])
-        for j, col in enumerate((np.ones(good.sum()), (v[good] ** 2).sum(1), (v[good] * r[good]).sum(1))):
-            self.sums[:, j] += np.bincount(cam[good], col, minlength=self.C)
-        key = cam * len(pa) + p[i]
-        order = np.argsort(key[ok], kind="stable")
-        ks, rs, Xs, ss = key[ok][order], r[ok][order], X[i[ok]][order], seen[ok][order]
-        cut = np.flatnonzero(np.diff(ks)) + 1
-        for k, rr, XX, sn in zip(ks[np.r_[0, cut]], np.split(rs, cut), np.split(Xs, cut), np.split(ss, cut)):
-            if len(rr) >= MIN_POINTS:
-                self.meds[k, -1] = np.median(rr, axis=0)
-                self.points[k][-1] = (XX, sn)
-
-    def _midpoints(self, xa: np.ndarray, a: np.ndarray, xb: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """(n, 2) normalised points of views ``a`` (n,) and ``b`` (n,) -> (n, 3) midpoints of the rays'
-        closest approach (Eq. 3's two-view case, closed form)."""
-        da = np.einsum("nij,nj->ni", self.Rt[a][:, :, :2], xa) + self.Rt[a][:, :, 2]
-        db = np.einsum("nij,nj->ni", self.Rt[b][:, :, :2], xb) + self.Rt[b][:, :, 2]
-        w0 = self.centres[a] - self.centres[b]
-        aa, bb, cc = (da * da).sum(1), (da * db).sum(1), (db * db).sum(1)
-        d, e = (da * w0).sum(1), (db * w0).sum(1)
-        den = aa * cc - bb * bb
-        with np.errstate(invalid="ignore", divide="ignore"):
-            s, t = (bb * e - cc * d) / den, (aa * e - bb * d) / den
-        return (self.centres[a] + s[:, None] * da + self.centres[b] + t[:, None] * db) / 2
 
     def _steps(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per camera x pair: the step of the last second's median residual against the median of
         the seconds before (radians; 0 where not judged), its threshold, and the baseline (2,)."""
-        nb = self.n_base
-        base_meds, recent = self.meds[:, :nb], self.meds[:, nb:]
-        base = _nanmedian(base_meds)  # (Nk, 2)
-        scatter = 1.4826 * _nanmedian(np.linalg.norm(base_meds - base[:, None], axis=2))
-        dev = np.linalg.norm(recent - base[:, None], axis=2)  # (Nk, n_recent)
-        ready = (np.isfinite(base_meds[..., 0]).sum(1) >= nb - 1) & np.isfinite(dev).all(axis=1)
-        step = np.where(ready, np.nan_to_num(dev).min(axis=1), 0.0)  # every sample of the last second moved
-        thr = np.where(ready, np.maximum(np.radians(MIN_DEG), NOISE_FACTOR * np.nan_to_num(scatter)), np.inf)
-        return step, thr, base
+        return kernels.steps(self.meds, self.n_base, MIN_RADIANS, NOISE_FACTOR)
+
+    def _suspect(self, step_k: np.ndarray, thr_k: np.ndarray) -> tuple[int, int] | None:
+        """The knocked camera and its most moved key (camera x pair), or None. A knocked camera moves
+        the keys that involve it -- its own residuals, and the others' through the pairs it is in --
+        and no other: the camera whose involved keys' median step passes its threshold, clearly
+        more than any key not involving it."""
+        ready = np.isfinite(thr_k)
+        ratio = np.where(ready, step_k / np.where(ready, thr_k, 1.0), 0.0)
+        inv = self.involves & ready
+        n_inv = inv.sum(axis=1)
+        if not ((2 * (inv & (ratio > 1)).sum(axis=1) >= n_inv) & (n_inv >= 2)).any():
+            return None  # (no camera has half its involved keys moved: no median above 1)
+        best, found = 0.0, None
+        for c in range(self.C):
+            inv = self.involves[c] & ready
+            own = inv & (self.key_camera == c)
+            if not own.any() or not inv.sum() >= 2:
+                continue
+            evidence = float(np.median(ratio[inv]))
+            clean = ratio[~self.involves[c] & ready]
+            margin = evidence / max(float(clean.max()) if len(clean) else 0.0, 1e-9)
+            if evidence > 1 and margin > SEPARATION and margin > best:
+                best, found = margin, (c, int(np.flatnonzero(own)[np.argmax(ratio[own])]))
+        return found
 
     def _check(self) -> None:
-        """A knock: the camera whose step (the smallest over the pairs that judge it) passes its
-        threshold and is clearly the largest."""
+        """A knock: the camera whose involved keys moved (:meth:`_suspect`), by a turn that a rotation
+        fitted to its points explains."""
         step_k, thr_k, base_k = self._steps()
-        Np = len(self.pairs[0])
-        ready = np.isfinite(thr_k).reshape(self.C, Np)
-        if ready.any(axis=1).sum() < 2:
+        if not (step_k > thr_k).any():  # (the usual sample: nothing moved)
             return
-        ratio_k = np.where(ready, (step_k / thr_k).reshape(self.C, Np), np.inf)
-        ratio = np.where(ready.any(axis=1), ratio_k.min(axis=1), 0.0)  # each camera: its least-moved pair
-        c = int(np.argmax(ratio))
-        others = np.delete(ratio, c)
-        if not ratio[c] > 1 or (len(others) and ratio[c] < SEPARATION * others.max()):
+        found = self._suspect(step_k, thr_k)
+        if found is None:
             return
-        k = c * Np + int(np.argmin(ratio_k[c]))
+        c, k = found
         dev = np.linalg.norm(self.meds[k] - base_k[k], axis=1)
         moved = dev > step_k[k] / 2  # (NaN: not moved)
         first = self.n_base  # the first sample of the run of moved samples reaching into the last second
@@ -227,7 +196,8 @@ class DriftMonitor:
         frame = self.last_frame
         # the turn: the rotation fitted to the moved samples' points against the one fitted before
         # (which holds the calibration's own small error); a step that no rotation explains is not a knock
-        pts = self.points[k]
+        pts = [None if q is None or not np.isfinite(self.meds[k, j, 0]) else (q[1][q[0][k]:q[0][k + 1]], q[2][q[0][k]:q[0][k + 1]])
+               for j, q in enumerate(self.samples)]
         before, after = [q for q in pts[:first] if q is not None], [q for q in pts[first:] if q is not None]
         if not before or not after:
             return
@@ -247,8 +217,7 @@ class DriftMonitor:
                       f"({event['rotation_degrees']} deg) and applied from frame {frame + 1}" if self.recalibrate
                       else "recalibrate it"), GymtrackWarning, stacklevel=2)
         self.meds[:] = np.nan  # every camera's residuals moved with it: a new baseline after the move
-        for q in self.points:
-            q[:] = [None] * len(q)
+        self.samples = [None] * len(self.samples)
 
     def _refit(self, c: int, samples: list[tuple]) -> np.ndarray:
         """The rotation of camera ``c`` against its calibration, from the (n, 3) world points the
@@ -304,10 +273,15 @@ class DriftMonitor:
         """Cameras whose residuals follow their points' motion: ``[{camera, offset, frames}]`` for a
         least-squares offset of ``min_frames`` or more (``offset`` as scene.yaml's frame_offsets)."""
         out = []
-        n, vv, vr = self.sums[:, 0], self.sums[:, 1], self.sums[:, 2]
+        own = np.stack([self.sums[self.key_camera == c].sum(axis=0) for c in range(self.C)])  # (C, 3)
+        clean = np.stack([self.sums[~self.involves[c]].sum(axis=0) for c in range(self.C)])
         with np.errstate(invalid="ignore", divide="ignore"):
-            o = -vr / vv
-        worst = int(np.nanargmax(np.abs(o))) if np.isfinite(o).any() else -1
+            o, o_clean = -own[:, 2] / own[:, 1], -clean[:, 2] / clean[:, 1]
+        # the camera out of sync drags the keys it is in, not the others: the largest own offset
+        # beyond what the keys not involving it show
+        score = np.where(np.isfinite(o), np.abs(o) - np.abs(np.nan_to_num(o_clean)), -np.inf)
+        worst = int(np.argmax(score)) if np.isfinite(score).any() else -1
+        n = own[:, 0]
         if worst >= 0 and abs(o[worst]) >= min_frames and n[worst] >= 50:
             out.append({"camera": self.rig.names[worst], "offset": int(np.round(o[worst])),
                         "estimate": round(float(o[worst]), 2), "points": int(n[worst])})

@@ -29,7 +29,7 @@ def track_detections(
     mode: Method | str = DEFAULT_MODE,
     association: str = "iou",
     progress: Callable[[int, int], None] | None = None,
-    watch_cameras: bool = False,
+    watch_cameras: bool = True,
     recalibrate: bool = True,
 ) -> TrackResult:
     """Run the streaming :class:`Tracker` over all frames of ``detections`` (offline use): one

@@ -100,7 +100,7 @@ class Tracker:
         :data:`~gymtrack.modes.RECIPES` (``cascade`` | ``triangulation`` | ``plane`` | ``cascade+``);
         ``mode=`` is the same argument under its older name.
     association: ``iou`` (the method) | ``oracle`` (ground-truth ids in ``track_id``).
-    watch_cameras: watch each camera's residuals for a knock or a desync (:mod:`.drift`; off by default);
+    watch_cameras: watch each camera's residuals for a knock or a desync (:mod:`.drift`; on by default);
     recalibrate: then a knocked camera's rotation re-estimated and applied (the warning stays).
 
     Use: ``out = tracker.update(frame, detections_of_that_frame)`` for increasing frame
@@ -109,7 +109,7 @@ class Tracker:
     """
 
     def __init__(self, rig: Rig, scene: Scene, method: Method | str = DEFAULT_MODE, association: str = "iou",
-                 *, mode: Method | str | None = None, watch_cameras: bool = False, recalibrate: bool = True):
+                 *, mode: Method | str | None = None, watch_cameras: bool = True, recalibrate: bool = True):
         try:
             m = self.method = method_of(method if mode is None else mode)
         except ValueError as e:

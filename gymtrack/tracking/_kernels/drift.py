@@ -1,0 +1,173 @@
+"""Compiled kernels of the venue check (beyond the paper; :mod:`..drift`).
+
+:func:`residuals`: one window's residuals -- the point one view pair triangulates (Eq. 3's
+two-view case, midpoint of the rays) projected into each third view that saw it, minus where that
+view saw it -- and the sync regression's sums; :func:`medians`: a sample's rows grouped per
+camera x pair with their medians.
+:func:`steps`: per camera x pair, the step of the last second's median residual against the
+seconds before. One call each instead of some sixty numpy calls and a median per group; the numpy
+code they replace is ``tests/reference/drift.py`` (same residuals up to rounding, same medians).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, error_model="numpy")
+def _normalised(box, k, w, Kinv, c):
+    u, v = box[k, w, 0], box[k, w, 1]
+    return (Kinv[c, 0, 0] * u + Kinv[c, 0, 1] * v + Kinv[c, 0, 2],
+            Kinv[c, 1, 0] * u + Kinv[c, 1, 1] * v + Kinv[c, 1, 2])
+
+
+@njit(cache=True, error_model="numpy")
+def residuals(box, observed, members, Kinv, Rt, centres, Pn, pa, pb, max_residual, w_lo, w_hi):
+    """box (K, W, 4) undistorted boxes, observed (K, W), members (M, C) int64 (clusters of fewer than
+    three views are skipped), Kinv / Rt (C, 3, 3), centres (C, 3), Pn (C, 3, 4), pa / pb (Np,) the
+    pairs, max_residual (radians), the window's frames ``w_lo .. w_hi - 1`` -> the residuals' rows:
+    key (n,) camera x pair (``c * Np + p``), R (n, 2) seen - predicted, X (n, 3) the triangulated
+    point, S (n, 2) where the camera saw it; sums (C * Np, 3) by key: n, v.v, v.r of the rows with
+    an image velocity (central difference inside the window)."""
+    M, C = members.shape
+    W = box.shape[1]
+    Np = len(pa)
+    cap = 0
+    for m in range(M):
+        n = 0
+        for c in range(C):
+            n += members[m, c] >= 0
+        if n >= 3:
+            cap += Np * (w_hi - w_lo) * (n - 2)
+    key = np.empty(cap, np.int64)
+    R = np.empty((cap, 2))
+    X = np.empty((cap, 3))
+    S = np.empty((cap, 2))
+    sums = np.zeros((C * Np, 3))
+    n = 0
+    for m in range(M):
+        views = 0
+        for c in range(C):
+            views += members[m, c] >= 0
+        if views < 3:
+            continue
+        for p in range(Np):
+            a, b = pa[p], pb[p]
+            ka, kb = members[m, a], members[m, b]
+            if ka < 0 or kb < 0:
+                continue
+            for w in range(w_lo, w_hi):
+                if not (observed[ka, w] and observed[kb, w]):
+                    continue
+                xa0, xa1 = _normalised(box, ka, w, Kinv, a)
+                xb0, xb1 = _normalised(box, kb, w, Kinv, b)
+                da0 = Rt[a, 0, 0] * xa0 + Rt[a, 0, 1] * xa1 + Rt[a, 0, 2]
+                da1 = Rt[a, 1, 0] * xa0 + Rt[a, 1, 1] * xa1 + Rt[a, 1, 2]
+                da2 = Rt[a, 2, 0] * xa0 + Rt[a, 2, 1] * xa1 + Rt[a, 2, 2]
+                db0 = Rt[b, 0, 0] * xb0 + Rt[b, 0, 1] * xb1 + Rt[b, 0, 2]
+                db1 = Rt[b, 1, 0] * xb0 + Rt[b, 1, 1] * xb1 + Rt[b, 1, 2]
+                db2 = Rt[b, 2, 0] * xb0 + Rt[b, 2, 1] * xb1 + Rt[b, 2, 2]
+                w0, w1, w2 = centres[a, 0] - centres[b, 0], centres[a, 1] - centres[b, 1], centres[a, 2] - centres[b, 2]
+                aa = da0 * da0 + da1 * da1 + da2 * da2
+                bb = da0 * db0 + da1 * db1 + da2 * db2
+                cc = db0 * db0 + db1 * db1 + db2 * db2
+                d = da0 * w0 + da1 * w1 + da2 * w2
+                e = db0 * w0 + db1 * w1 + db2 * w2
+                den = aa * cc - bb * bb
+                s, t = (bb * e - cc * d) / den, (aa * e - bb * d) / den
+                P0 = (centres[a, 0] + s * da0 + centres[b, 0] + t * db0) / 2
+                P1 = (centres[a, 1] + s * da1 + centres[b, 1] + t * db1) / 2
+                P2 = (centres[a, 2] + s * da2 + centres[b, 2] + t * db2) / 2
+                for c in range(C):
+                    kc = members[m, c]
+                    if c == a or c == b or kc < 0 or not observed[kc, w]:
+                        continue
+                    q0 = Pn[c, 0, 0] * P0 + Pn[c, 0, 1] * P1 + Pn[c, 0, 2] * P2 + Pn[c, 0, 3]
+                    q1 = Pn[c, 1, 0] * P0 + Pn[c, 1, 1] * P1 + Pn[c, 1, 2] * P2 + Pn[c, 1, 3]
+                    q2 = Pn[c, 2, 0] * P0 + Pn[c, 2, 1] * P1 + Pn[c, 2, 2] * P2 + Pn[c, 2, 3]
+                    x0, x1 = _normalised(box, kc, w, Kinv, c)
+                    r0, r1 = x0 - q0 / q2, x1 - q1 / q2
+                    if not (q2 > 0 and abs(r0) < max_residual and abs(r1) < max_residual):
+                        continue
+                    key[n] = c * Np + p
+                    R[n, 0], R[n, 1] = r0, r1
+                    X[n, 0], X[n, 1], X[n, 2] = P0, P1, P2
+                    S[n, 0], S[n, 1] = x0, x1
+                    n += 1
+                    if 0 < w < W - 1 and observed[kc, w - 1] and observed[kc, w + 1]:
+                        u0, u1 = _normalised(box, kc, w + 1, Kinv, c)
+                        l0, l1 = _normalised(box, kc, w - 1, Kinv, c)
+                        v0, v1 = (u0 - l0) / 2, (u1 - l1) / 2
+                        if np.isfinite(v0):
+                            sums[c * Np + p, 0] += 1
+                            sums[c * Np + p, 1] += v0 * v0 + v1 * v1
+                            sums[c * Np + p, 2] += v0 * r0 + v1 * r1
+    return key[:n], R[:n], X[:n], S[:n], sums
+
+
+@njit(cache=True, error_model="numpy")
+def medians(key, R, X, S, n_keys, min_points):
+    """The rows of :func:`residuals` (of one or more windows) grouped by key -> med (n_keys, 2) each
+    key's median residual (NaN with fewer than ``min_points`` rows), start (n_keys + 1,) offsets of
+    each key's rows in X (n, 3) and S (n, 2), their order kept within a key."""
+    order = np.argsort(key, kind="mergesort")
+    start = np.zeros(n_keys + 1, np.int64)
+    for j in range(len(key)):
+        start[key[j] + 1] += 1
+    for k in range(n_keys):
+        start[k + 1] += start[k]
+    Rs = R[order]
+    med = np.full((n_keys, 2), np.nan)
+    for k in range(n_keys):
+        if start[k + 1] - start[k] >= min_points:
+            med[k, 0] = np.median(Rs[start[k]:start[k + 1], 0])
+            med[k, 1] = np.median(Rs[start[k]:start[k + 1], 1])
+    return med, start, X[order], S[order]
+
+
+@njit(cache=True, error_model="numpy")
+def steps(meds, n_base, min_step, noise_factor):
+    """meds (Nk, L, 2) the samples' median residuals (NaN: not judged), the first ``n_base`` the
+    baseline -> step (Nk,) the smallest distance of a recent sample from the baseline's median (0
+    where not ready), thr (Nk,) max(min_step, noise_factor x 1.4826 x the baseline's median
+    distance from its median; inf where not ready), base (Nk, 2) the baseline's median."""
+    Nk, L, _ = meds.shape
+    step = np.zeros(Nk)
+    thr = np.full(Nk, np.inf)
+    base = np.full((Nk, 2), np.nan)
+    for k in range(Nk):
+        good = np.isfinite(meds[k, :n_base, 0])
+        if good.sum() == 0:
+            continue
+        base[k, 0] = np.median(meds[k, :n_base, 0][good])
+        base[k, 1] = np.median(meds[k, :n_base, 1][good])
+        if good.sum() < n_base - 1:
+            continue
+        lo = np.inf
+        for j in range(n_base, L):
+            dev = np.hypot(meds[k, j, 0] - base[k, 0], meds[k, j, 1] - base[k, 1])
+            if not np.isfinite(dev):
+                lo = -1.0
+                break
+            lo = min(lo, dev)
+        if lo < 0:
+            continue
+        dist = np.hypot(meds[k, :n_base, 0][good] - base[k, 0], meds[k, :n_base, 1][good] - base[k, 1])
+        step[k] = lo
+        thr[k] = max(min_step, noise_factor * 1.4826 * np.median(dist))
+    return step, thr, base
+
+
+def warm_up() -> None:
+    """Compile (or load) the kernels: three views of a synthetic cluster, and a short history."""
+    C, W = 3, 4
+    box = np.ones((C, W, 4))
+    eye = np.ascontiguousarray(np.broadcast_to(np.eye(3), (C, 3, 3)))
+    Pn = np.zeros((C, 3, 4))
+    Pn[:, :, :3] = eye
+    pa, pb = np.array([0, 0, 1], np.int64), np.array([1, 2, 2], np.int64)
+    key, R, X, S, _ = residuals(box, np.ones((C, W), np.bool_), np.arange(C, dtype=np.int64).reshape(1, C), eye, eye,
+                                np.eye(3), Pn, pa, pb, 0.05, 1, W - 1)
+    medians(key, R, X, S, C * len(pa), 8)
+    steps(np.zeros((2, 5, 2)), 3, 0.005, 3.0)

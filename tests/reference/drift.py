@@ -1,0 +1,83 @@
+"""Numpy reference of the venue check's kernels (gymtrack/tracking/_kernels/drift.py):
+tracking.drift's residuals and steps before they were compiled."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def _nanmedian(a: np.ndarray) -> np.ndarray:
+    """Median over axis 1 ignoring NaN (NaN where all are)."""
+    s = np.sort(a, axis=1)  # (NaN last)
+    n = np.isfinite(a).sum(axis=1, keepdims=True)
+    lo = np.take_along_axis(s, np.maximum(n - 1, 0) // 2, axis=1)
+    med = np.where(n % 2 == 1, lo, (lo + np.take_along_axis(s, np.minimum(n // 2, a.shape[1] - 1), axis=1)) / 2)
+    return np.where(n > 0, med, np.nan)[:, 0]
+
+
+def _midpoints(Rt, centres, xa, a, xb, b):
+    da = np.einsum("nij,nj->ni", Rt[a][:, :, :2], xa) + Rt[a][:, :, 2]
+    db = np.einsum("nij,nj->ni", Rt[b][:, :, :2], xb) + Rt[b][:, :, 2]
+    w0 = centres[a] - centres[b]
+    aa, bb, cc = (da * da).sum(1), (da * db).sum(1), (db * db).sum(1)
+    d, e = (da * w0).sum(1), (db * w0).sum(1)
+    den = aa * cc - bb * bb
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s, t = (bb * e - cc * d) / den, (aa * e - bb * d) / den
+    return (centres[a] + s[:, None] * da + centres[b] + t[:, None] * db) / 2
+
+
+def residuals_numpy(box, observed, members, Kinv, Rt, centres, Pn, pa, pb, max_residual, min_points, w_lo, w_hi):
+    """What the kernels return for the window's frames ``w_lo .. w_hi - 1``, as {key: (median (2,), X (n, 3), seen (n, 2))} for the keys with
+    ``min_points`` or more, and the sync sums by key (C * Np, 3)."""
+    C, Np = members.shape[1], len(pa)
+    outside = np.ones((Np, C), bool)
+    outside[np.arange(Np), pa] = False
+    outside[np.arange(Np), pb] = False
+    sums, out = np.zeros((C * Np, 3)), {}
+    members = members[(members >= 0).sum(axis=1) >= 3]
+    if not len(members):
+        return out, sums
+    has = members >= 0
+    idx = np.where(has, members, 0)
+    obs = observed[idx] & has[..., None]  # (M, C, W)
+    uv = box[idx][..., :2]
+    x = np.einsum("cij,mcwj->mcwi", Kinv[:, :2, :2], uv) + Kinv[None, :, None, :2, 2]
+    pair_ok = obs[:, pa] & obs[:, pb]
+    pair_ok[..., :w_lo] = False
+    pair_ok[..., w_hi:] = False
+    m, p, w = np.nonzero(pair_ok)
+    if not len(m):
+        return out, sums
+    X = _midpoints(Rt, centres, x[m, pa[p], w], pa[p], x[m, pb[p], w], pb[p])
+    i, cam = np.nonzero(obs[m, :, w] & outside[p])
+    Xi = X[i]
+    pc = np.einsum("nij,nj->ni", Pn[cam][:, :, :3], Xi) + Pn[cam][:, :, 3]
+    seen = x[m[i], cam, w[i]]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        r = seen - pc[:, :2] / pc[:, 2:]
+        ok = (pc[:, 2] > 0) & (np.abs(r).max(axis=1) < max_residual)
+    vel = np.full_like(x, np.nan)
+    vel[:, :, 1:-1] = np.where((obs[..., 2:] & obs[..., :-2])[..., None], (x[:, :, 2:] - x[:, :, :-2]) / 2, np.nan)
+    v = vel[m[i], cam, w[i]]
+    good = ok & np.isfinite(v[:, 0])
+    key = cam * Np + p[i]
+    for j, col in enumerate((np.ones(good.sum()), (v[good] ** 2).sum(1), (v[good] * r[good]).sum(1))):
+        sums[:, j] += np.bincount(key[good], col, minlength=C * Np)
+    for k in np.unique(key[ok]):
+        sel = ok & (key == k)
+        if sel.sum() >= min_points:
+            out[int(k)] = (np.median(r[sel], axis=0), Xi[sel], seen[sel])
+    return out, sums
+
+
+def steps_numpy(meds, nb, min_step, noise_factor):
+    """(step, thr, base) as the kernel's."""
+    base_meds, recent = meds[:, :nb], meds[:, nb:]
+    base = np.stack([_nanmedian(base_meds[..., 0]), _nanmedian(base_meds[..., 1])], axis=1)
+    scatter = 1.4826 * _nanmedian(np.linalg.norm(base_meds - base[:, None], axis=2))
+    dev = np.linalg.norm(recent - base[:, None], axis=2)
+    ready = (np.isfinite(base_meds[..., 0]).sum(1) >= nb - 1) & np.isfinite(dev).all(axis=1)
+    step = np.where(ready, np.nan_to_num(dev).min(axis=1), 0.0)
+    thr = np.where(ready, np.maximum(min_step, noise_factor * np.nan_to_num(scatter)), np.inf)
+    return step, thr, base
