@@ -309,3 +309,37 @@ def test_target_backfill_streaming_equals_offline():
     assert got == expected
     assert len(buf) == 0
     assert offline[45] == 3 and np.count_nonzero(offline[60:75] == 8) > 0  # track 8 took frames before 75
+
+
+@pytest.mark.parametrize("renamed", [True, False])
+def test_handover_rename_counts_the_new_tracks_held_rows_for_the_target(renamed):
+    """Track 1 (the target) ends at frame 20; track 2 resumes the gymnast from frame 21, standing
+    (in S_perf, never qualifying). Handed over at frame 27: with the selector's rows of track 2
+    renamed, frames 21..27 count for the target and it is kept; without, the last Delta = 10
+    frames hold 2 of its points and it is lost at once."""
+    sel = TargetSelector(identify_frames=10)
+    rows = {f: [(1, True, True)] for f in range(21)}
+    for f in range(21, 28):
+        rows[f] = [(2, False, True)]
+    before = run_selector(sel, range(21), rows, {})
+    assert before[5] == 1 and np.all(before[5:] == 1)
+    lost = run_selector(sel, range(21, 28), rows, {1: 20})
+    assert np.all(lost == -1) and sel.last_target == 1  # ended, and track 2 never qualifies
+    if renamed:
+        sel.rename(2, 1, 20)
+        assert np.all(sel._tid[sel._frame > 20] == 1) and np.all(sel._tid[sel._frame <= 20] == 1)
+    sel.target = 1  # the handover resumes the lost target
+    after = run_selector(sel, range(28, 36), {f: [(1, False, True)] for f in range(28, 36)}, {})
+    if renamed:
+        assert np.all(after == 1)  # frames 19..28 all in S_perf under the target's id: 10 > 5
+    else:
+        assert np.all(after == -1)  # frames 19, 20 and 28 only: 3 <= 5
+
+
+def test_selector_rename_touches_only_that_tracks_rows_after_the_frame():
+    sel = TargetSelector(identify_frames=10)
+    tid = np.array([2, 3, 2, 2, 3])
+    frame = np.array([4, 5, 5, 6, 6])
+    sel.select(4, 6, frame, tid, np.zeros(5, bool), np.ones(5, bool), {})
+    sel.rename(2, 7, 4)
+    assert sel._tid.tolist() == [2, 3, 7, 7, 3]
