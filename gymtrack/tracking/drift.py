@@ -87,7 +87,7 @@ class DriftMonitor:
         self.rig, self.fps, self.recalibrate, self.active = rig, fps, recalibrate, active
         C = self.C = len(rig)
         self.Kinv = np.stack([np.linalg.inv(c.K) for c in rig])
-        self.Rt = np.stack([c.R.T for c in rig])  # (C, 3, 3) camera -> world directions
+        self.Rt = np.ascontiguousarray(np.stack([c.R.T for c in rig]))  # (C, 3, 3) camera -> world; C order as warm_up compiles
         self.centres = rig.centres
         self.Pn = np.stack([np.c_[c.R, c.t] for c in rig])  # (C, 3, 4) normalised projections
         every = step * EVERY_WINDOWS  # frames between samples
