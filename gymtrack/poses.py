@@ -1,4 +1,4 @@
-"""``Poses2D`` and ``Poses3D``: the columnar types of the pose stage (issue #9).
+"""``Poses2D`` and ``Poses3D``: the columnar types of the pose stage.
 
 The paper (Yang et al.) tracks the gymnast as a box and a 3D centre (Sections III-A to III-D);
 the pose stage adds the joints: 2D poses a pose model finds in each view (inside the target's

@@ -89,8 +89,8 @@ class Params(_Strict):
                                    "body box in views without a detection (default: the preset's; 0.8 on pommel horse)")
     opposite_angle_deg: float = Field(150.0, gt=90, le=180)
     # mode cascade+ (beyond the paper): two-view clusters fused with the plane by their uncertainty
-    # (tracking.fusion). Off by default: on the default suite it meets the accuracy criteria of
-    # issue 12 item 4 (README), but cascade+ is below 0.85 x triangulation's speed with or without it
+    # (tracking.fusion). Off by default: on the default suite it meets the fusion's accuracy criteria
+    # (README), but cascade+ is below 0.85 x triangulation's speed with or without it
     fuse_plane: bool = Field(False, description="cascade+ only: fuse two-view clusters with the plane (tracking.fusion)")
     plane_sigma: float = Field(0.1, gt=0, description="metres: how far the body's centre strays from the "
                                "apparatus plane along its normal (the plane prior of cascade+'s fusion); smaller "

@@ -1,4 +1,4 @@
-"""MVOR: real multi-view upper-body poses with real 2D detector output (issue #9, item 6).
+"""MVOR: real multi-view upper-body poses with real 2D detector output.
 
 The paper (Yang et al., Section III-D) triangulates the joints a pose model finds in several
 calibrated views; MVOR lets the pose stage measure that on data nobody here made:

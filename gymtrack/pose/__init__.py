@@ -1,7 +1,7 @@
 """The pose stage: the target's 3D skeleton from its multi-view 2D poses.
 
 Paper: Section III-D (2D poses in the expanded boxes ``b_buf``, lifted with Eq. 3), extended by
-issue #9: robust lifting and the cascade for joints. Layer: above tracking and simulate, below
+robust lifting and the cascade for joints. Layer: above tracking and simulate, below
 eval and cli.
 
 * :mod:`.lift`       ``lift_track``, ``LiftOptions``, ``Lifted``: one track's 2D poses -> 3D

@@ -2,7 +2,7 @@
 
 Paper: Section III-D, last paragraph of "Identify Target Gymnast for Pose Estimation": HRNet runs
 on the target's expanded box ``b_buf`` in every view and the 3D pose is triangulated from its 2D
-keypoints; Fig. 7 shows how a biased box misdirects the pose. Issue #9 item 3: the model sees
+keypoints; Fig. 7 shows how a biased box misdirects the pose. The model sees
 only what the method's crop shows, so each method's ``b_buf`` decides the pose error.
 
 Per crop (vectorised over crops; the geometry is in :mod:`.pose_view`):

@@ -1,4 +1,4 @@
-"""Beyond the paper (issue 12; ``cascade+``): two tracks cannot be one body -- duplicates suppressed.
+"""Beyond the paper (``cascade+``): two tracks cannot be one body -- duplicates suppressed.
 
 A person is sometimes carried by two 3D tracks at once: a cross-window link (Eq. 10-11) failed and
 the old track's last window overlaps the new one's first, or a wrong cross-view pair (Eq. 1-2)

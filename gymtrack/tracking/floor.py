@@ -1,4 +1,4 @@
-"""The floor hypothesis of ``cascade+``: people standing on the floor (beyond the paper, issue 12 item 1).
+"""The floor hypothesis of ``cascade+``: people standing on the floor (beyond the paper).
 
 The paper's cascade (Section III-C, Eq. 5-9) puts every segment triangulation could not use on
 the apparatus' vertical plane, which is right for the gymnast but wrong for coaches, judges and
@@ -24,7 +24,7 @@ inside the performance space and in the air, keeps the plane. Like a one-view pl
 a one-view floor tracklet may only continue a track, never start one (the tracker's link step):
 one view cannot tell a person from a clutter box, whose foot ray meets the floor as well. Trade:
 someone only one view ever sees (a spectator along the vault's runway at n_cam = 4) is not
-tracked; a measured net gain of about 0.05 MOTA on the simulated suite (issue 12).
+tracked; a measured net gain of about 0.05 MOTA on the simulated suite.
 
 Output: :class:`~.types.WindowTracklets3D` with ``xyz`` the body centre above the ground
 position (half the height), ``top_z`` the height, ``bottom_z`` 0, source ``PLANE`` (a
@@ -184,7 +184,7 @@ def drop_floor_ghosts(tri: WindowTracklets3D | None, segs: WindowTracklets, rig:
     ``owner`` (K,) or a callable giving it: the previous window's 3D track of each segment's 2D
     track (-1: none); a pair
     whose two 2D tracks were both members of one track there is *confirmed* and never a ghost
-    (the test is for new, wrong pairings; issue 12: it also took the target's own pair in the
+    (the test is for new, wrong pairings; it also took the target's own pair in the
     air off the apparatus plane, e.g. on the pommel horse). Trade: a wrong pair that survived one
     window keeps surviving while both its 2D tracks last (+4 to +7 % false positives on the
     suite, -0.005 MOTA). ``owner`` may also be the tracker's ``(prev_2d, prev_owner)``: the 2D

@@ -1,4 +1,4 @@
-"""Uncertainty-aware fusion of two views and the vertical plane (beyond the paper: issue 12 item 4; mode ``cascade+``).
+"""Uncertainty-aware fusion of two views and the vertical plane (beyond the paper; mode ``cascade+``).
 
 Paper: Section III-B/C, Eq. 3 and Eq. 5-9. The cascade switches hard: a two-view cluster is
 triangulated (Eq. 3) unless its views are opposite, then both views go to the plane (Eq. 7-9).

@@ -1,4 +1,4 @@
-"""Online refinement of the apparatus plane from the tracker's own points (beyond the paper: issue 12).
+"""Online refinement of the apparatus plane from the tracker's own points (beyond the paper).
 
 Paper: Section III-C's vertical plane (Eq. 7) is fixed before tracking. In ``cascade+`` with
 ``params.refine_plane`` > 0 (or ``planes: auto``) the tracker refits it as it goes: the

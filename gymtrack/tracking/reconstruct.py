@@ -108,7 +108,7 @@ def outliers(xyz: np.ndarray, valid: np.ndarray, space: np.ndarray, max_speed: f
 
 
 def outliers_at_mean(xyz: np.ndarray, valid: np.ndarray, space: np.ndarray, max_speed: float) -> np.ndarray:
-    """``cascade+`` (beyond the paper, issue 12): Eq. 4 with the tracking-space test on the
+    """``cascade+`` (beyond the paper): Eq. 4 with the tracking-space test on the
     tracklet's mean position over its valid frames instead of on every point.
 
     Eq. 4 drops a tracklet when any one point leaves ``S_track``; a person standing near its

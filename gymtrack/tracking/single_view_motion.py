@@ -1,4 +1,4 @@
-"""Beyond the paper (issue 12, item 2; ``cascade+``): a single-view tracker that predicts motion.
+"""Beyond the paper (``cascade+``): a single-view tracker that predicts motion.
 
 The paper's per-view tracker (Section III-A, :class:`.single_view.IoUTracker`) continues a 2D
 track only with a box that overlaps its last one. At a low frame rate (WILDTRACK's 2 fps: a

@@ -1,4 +1,4 @@
-"""Numpy reference of cascade+'s duplicate-suppression kernel (beyond the paper: issue 12;
+"""Numpy reference of cascade+'s duplicate-suppression kernel (beyond the paper;
 gymtrack/tracking/_kernels/exclusion.py): tracking.exclusion.too_close before it was compiled."""
 
 from __future__ import annotations

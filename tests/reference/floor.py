@@ -1,5 +1,5 @@
 """The numpy floor hypothesis of ``cascade+`` that :mod:`gymtrack.tracking._kernels.floor` replaced
-(beyond the paper, issue 12 item 1; Eq. 5-9 with the floor z = 0 as the plane): the reference
+(beyond the paper; Eq. 5-9 with the floor z = 0 as the plane): the reference
 the tests compare the kernels with, on random inputs.
 
 :func:`floor_candidates` (K, W, 2) foot, (K, W) height, (K, W) ok; :func:`floor_distances` (K, K);

@@ -1,5 +1,5 @@
 """The vectorised numpy version of ``cascade+``'s ray-plane fusion that
-:func:`gymtrack.tracking._kernels.fusion.fuse_pairs` replaced (beyond the paper, issue 12 item 4;
+:func:`gymtrack.tracking._kernels.fusion.fuse_pairs` replaced (beyond the paper;
 Eq. 5-8 and the weighted least squares of :mod:`gymtrack.tracking.fusion`): the reference the
 tests compare the kernel with, on random input. Same signature and outputs as the kernel.
 """

@@ -1,5 +1,5 @@
 """Numpy reference of the linking kernels (paper Section III-B, Eq. 10; Eq. 12 with cascade+'s
-``best_only``, beyond the paper: issue 12)."""
+``best_only``, beyond the paper)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Numpy reference of cascade+'s superseded-estimates kernel (beyond the paper: issue 12;
+"""Numpy reference of cascade+'s superseded-estimates kernel (beyond the paper;
 gymtrack/tracking/_kernels/records.py): tracking.records.superseded before it was compiled."""
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 Paper: no method of its own; these are the hot loops of Section III-A (:mod:`.single_view`,
 :mod:`.windows`), III-B (:mod:`.clustering`: Eq. 2, Algorithm 1; :mod:`.reconstruct`: Eq. 3-4;
 :mod:`.linking`: Eq. 10-12, cascade+'s link by 2D tracks), III-C (:mod:`.plane`: Eq. 5-9; :mod:`.floor`: ``cascade+``'s floor, Eq. 5-9 on z = 0; :mod:`.fusion`: ``cascade+``'s ray-plane fusion;
-:mod:`.exclusion`: ``cascade+``'s duplicate suppression, :mod:`.records`: its superseded estimates, issue 12) and the venue check (:mod:`.drift`: the residuals of a knocked or late camera) and III-D (:mod:`.target`: Eq. 14),
+:mod:`.exclusion`: ``cascade+``'s duplicate suppression, :mod:`.records`: its superseded estimates) and the venue check (:mod:`.drift`: the residuals of a knocked or late camera) and III-D (:mod:`.target`: Eq. 14),
 written as plain loops over the scalar primitives of :mod:`gymtrack.geometry.primitives`.
 The arrays of one frame or window are small (tens of boxes, tracklets of 10 frames), so
 numpy's per-call overhead dominated the vectorised versions; each kernel replaces a dozen or

@@ -1,4 +1,4 @@
-"""Compiled kernel of ``cascade+``'s duplicate suppression (beyond the paper: issue 12; :mod:`..exclusion`).
+"""Compiled kernel of ``cascade+``'s duplicate suppression (beyond the paper; :mod:`..exclusion`).
 
 :func:`too_close`: per final point, whether a point of an older track (smaller id) of the same
 frame lies closer than the minimum separation -- one pass over each frame's points instead of

@@ -1,4 +1,4 @@
-"""Compiled kernels of ``cascade+``'s floor hypothesis (beyond the paper, issue 12 item 1; the
+"""Compiled kernels of ``cascade+``'s floor hypothesis (beyond the paper; the
 rays and the floor as a plane are Eq. 5-7, matching and averaging Eq. 8-9 and Algorithm 1).
 
 A window hands the floor a few segments and the ghost test a few two-view clusters, where

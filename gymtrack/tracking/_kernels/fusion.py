@@ -1,4 +1,4 @@
-"""Compiled kernel of ``cascade+``'s ray-plane fusion of two-view clusters (beyond the paper: issue 12).
+"""Compiled kernel of ``cascade+``'s ray-plane fusion of two-view clusters (beyond the paper).
 
 Paper: Eq. 5-7 (rays, ray-plane candidates), Eq. 8 (the candidates' mean distance) and the
 weighted least squares of :mod:`gymtrack.tracking.fusion`, whose docstring derives the weights.

@@ -4,11 +4,11 @@
 windows over their overlap; numpy reference in ``tests/reference/linking.py``.
 Shapes: xyz (M, W, 3), valid (M, W).
 
-:func:`link_by_2d`: ``cascade+``'s floor tracklets continuing their 2D tracks' track (issue 12),
+:func:`link_by_2d`: ``cascade+``'s floor tracklets continuing their 2D tracks' track,
 one loop instead of a few numpy calls per floor tracklet; numpy reference ``tests/reference/linking.py``.
 
 :func:`merge_overlaps`: Eq. 12, one point per (frame, track) from the window estimates covering
-it (with ``cascade+``'s ``best_only``, beyond the paper: issue 12) -- one stable sort and one pass
+it (with ``cascade+``'s ``best_only``, beyond the paper) -- one stable sort and one pass
 over the groups instead of some twenty numpy calls per window; numpy reference
 ``tests/reference/linking.py``. Sums are taken in numpy's ``add.reduceat`` order (the first
 estimate plus the sum of the others), so the points are bit-identical for groups of up to 8
@@ -127,7 +127,7 @@ def merge_overlaps(frame, track_id, xyz, top_z, bottom_z, source, n_views, best_
 @njit(cache=True, error_model="numpy")
 def link_by_2d(rows, members, track2d, prev_2d, prev_owner, ids):
     """``cascade+``'s link by 2D tracks (:meth:`gymtrack.tracking.linking.WindowLinker._link_by_2d`,
-    beyond the paper: issue 12): each tracklet ``rows`` (r,) in order, ``members`` (M, C), whose
+    beyond the paper): each tracklet ``rows`` (r,) in order, ``members`` (M, C), whose
     2D tracks (``track2d`` (K,)) are all in ``prev_2d`` (n,) under one ``prev_owner`` (n,) continues
     that track unless ``ids`` (M,) already holds it (written into ``ids``). Returns the links made."""
     links = 0

@@ -1,4 +1,4 @@
-"""Compiled kernel of ``cascade+``'s superseded window estimates (beyond the paper: issue 12;
+"""Compiled kernel of ``cascade+``'s superseded window estimates (beyond the paper;
 :func:`gymtrack.tracking.records.superseded`).
 
 :func:`superseded`: which window estimates lost every member detection of their frame to a later

@@ -1,4 +1,4 @@
-"""cascade+ against ground truth on small simulated scenes (issue 12): Eq. 4's tracking-space test
+"""cascade+ against ground truth on small simulated scenes: Eq. 4's tracking-space test
 on a tracklet's mean position (a person at the boundary of S_track is kept), one view alone
 never starting a track on the floor (a clutter box) while it may continue one, and Eq. 12 keeping
 an over-determined triangulation rather than averaging it with a weaker estimate."""
