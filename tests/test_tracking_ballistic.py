@@ -8,8 +8,7 @@ import pytest
 
 from gymtrack.modes import RECIPES, recipe
 from gymtrack.simulate import simulate_routine
-from gymtrack.scene import Scene
-from gymtrack.tracking.ballistic import FIT_FRAMES, G, Footprint, fit_flight
+from gymtrack.tracking.ballistic import FIT_FRAMES, G, fit_flight
 from gymtrack.tracking.offline import track_detections
 
 
@@ -77,42 +76,3 @@ def test_a_detector_gap_in_flight_keeps_the_target(vault):
     without, _ = covered(recipe("cascade+", without=["ballistic"]))
     assert with_ >= 0.8 and with_ > without + 0.3, (with_, without)
     assert after >= 0.9  # the track that resumes after the landing is the gymnast's
-
-
-def test_a_beam_dismount_lands_on_the_floor_where_it_leaves_the_beam():
-    """The simulated dismount off the beam's end: fitted from its first third of a second with the
-    support's height (the lowest centre on the beam before), the parabola alone stops at beam
-    height 0.3 m short and 7 frames early; with the footprint it comes down to the floor where
-    the gymnast does (ground truth)."""
-    sim = simulate_routine("balance_beam", n_cam=2, seed=5, seconds=20.0)
-    c, fr = sim.centre[0], sim.frames
-    f = sim.flight.astype(np.int8)
-    starts, ends = np.flatnonzero(np.diff(np.r_[0, f]) == 1), np.flatnonzero(np.diff(np.r_[f, 0]) == -1)
-    k = int(np.flatnonzero(c[ends, 2] < 1.2)[-1])  # the last flight that ends on the floor: the dismount
-    a, b = int(starts[k]), int(ends[k])
-    assert c[a, 2] > 1.8 and b - a + 1 > FIT_FRAMES + 8  # from the beam, long enough to predict
-    i = np.arange(a, a + FIT_FRAMES)
-    support = float(c[a - 60: a + FIT_FRAMES, 2].min())  # on the beam: the keeper's landing height
-    fl = fit_flight(fr[i], c[i], sim.fps, sim.bottom_z[0, i[-1]], land_z=support)
-    assert fl.airborne and support > 1.8
-    on_floor = Footprint.of_scene(sim.scene).landing(fl)
-    assert on_floor.land_z < 1.0
-    assert abs(on_floor.landing_frame() - fr[b]) < 2.0
-    assert np.linalg.norm(on_floor.predict(fr[b:b + 1])[0] - c[b]) < 0.3
-    assert np.linalg.norm(fl.predict(fr[b:b + 1])[0] - c[b]) > 0.8  # the support's height: far off
-
-
-def test_footprint_keeps_a_landing_on_the_beam_and_needs_a_preset():
-    """A leap along the beam comes down over it: the support's height stays; a scene without an
-    apparatus has no footprint; the footprint follows the scene's plane (beam turned 90 degrees)."""
-    scene = Scene(apparatus="balance_beam")
-    fr = np.arange(FIT_FRAMES)
-    t = (fr - fr[-1]) / 30.0
-    xyz = np.stack([1.0 + 2.0 * t, np.zeros_like(t), 2.4 + 1.0 * t - G / 2 * t * t], axis=1)  # along the beam
-    fl = fit_flight(fr, xyz, 30.0, 1.6, land_z=2.05)
-    assert fl.airborne and Footprint.of_scene(scene).landing(fl).land_z == 2.05
-    off = fit_flight(fr, xyz[:, [1, 0, 2]] * [1, 1, 1], 30.0, 1.6, land_z=2.05)  # the same leap across it
-    assert Footprint.of_scene(scene).landing(off).land_z < 1.0
-    turned = Scene(apparatus="balance_beam", planes=[{"point": [0, 0, 0], "normal": [1, 0, 0]}])
-    assert Footprint.of_scene(turned).landing(off).land_z == 2.05  # the beam now lies along y
-    assert Footprint.of_scene(Scene(performance_space=[-3, -3, 0, 3, 3, 4])) is None

@@ -16,13 +16,9 @@ mass (their difference moves slowly against the flight's fall).
   target be held 0.5 s in place of the gymnast's own track), the body's bottom is off the floor (:data:`MIN_BOTTOM`) and the centre is
   above the landing height. A standing body that passes is predicted to land at once: its
   last point is held.
-* :meth:`Flight.predict` -- the parabola until the centre comes down to the landing height, then
-  the landing point, held. The landing height is the support's: the lowest centre height of the
-  target in the last :data:`SUPPORT_SECONDS` (what it stood on before). With an apparatus preset
-  in the scene (:class:`Footprint`), where the parabola comes down to that height off the
-  apparatus' footprint (its blocks and bars seen from above, grown by :data:`FOOT_MARGIN`) -- a
-  dismount off the beam's end, over the horse, off a bar -- nothing holds the body up there: it
-  lands on the floor, its centre at :data:`STAND_HEIGHT` above the floor.
+* :meth:`Flight.predict` -- the parabola until the centre comes down to the landing height (the
+  lowest centre height of the target in the last :data:`SUPPORT_SECONDS`, the support it stood on
+  before), then the landing point, held.
 * :class:`FlightKeeper` -- the target stage's use of it: frames the target is held without a
   point of its track (a detector gap in flight, or the gap until the track that resumes it takes
   over, :mod:`.handover`) get the predicted centre as a point (source ``interpolated``, no
@@ -34,14 +30,13 @@ State (bounded): every track's points of the last :data:`SUPPORT_SECONDS`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
-from ..apparatus import get_apparatus
 from .types import INTERPOLATED, TargetRows
 
-__all__ = ["G", "FIT_FRAMES", "Flight", "FlightKeeper", "Footprint", "fit_flight"]
+__all__ = ["G", "FIT_FRAMES", "Flight", "FlightKeeper", "fit_flight"]
 
 G = 9.81  #: m/s^2
 FIT_FRAMES = 10  #: the last points of the target fitted (a third of a second at 30 fps)
@@ -52,9 +47,6 @@ MIN_BOTTOM = 0.3  #: metres: the body's bottom above the floor, or it is standin
 SUPPORT_SECONDS = 2.0  #: the landing height is the lowest centre height of this last stretch
 MAX_SECONDS = 1.5  #: a prediction reaches this far past the last point at most (a vault's flight is under 1.5 s)
 HOLD_SECONDS = 0.5  #: the landing point is held this long after the predicted landing
-#: metres: the box centre of a gymnast landed on the floor (half the body's 1.55-1.70 m, knees bent)
-STAND_HEIGHT = 0.8
-FOOT_MARGIN = 0.25  #: metres: the centre over the footprint grown by a foot's length lands on the apparatus
 
 
 @dataclass(frozen=True)
@@ -122,56 +114,16 @@ def fit_flight(frame: np.ndarray, xyz: np.ndarray, fps: float, bottom: float = n
     return Flight(int(frame[-1]), coef[0], coef[1], rms, rms_line, float(bottom), land, float(fps))
 
 
-class Footprint:
-    """The apparatus seen from above (the scene's preset, placed on the scene's plane as the
-    analysis places it): axis-aligned rectangles of its blocks and bars (grown by their radius),
-    in the preset's frame, and the floor's height (the performance space's bottom)."""
-
-    def __init__(self, scene):
-        app = get_apparatus(scene.apparatus)
-        lo = [b.lo[:2] for b in app.blocks] + [np.minimum(b.start[:2], b.end[:2]) - b.radius for b in app.bars]
-        hi = [b.hi[:2] for b in app.blocks] + [np.maximum(b.start[:2], b.end[:2]) + b.radius for b in app.bars]
-        self.lo = np.array(lo, np.float64).reshape(-1, 2) - FOOT_MARGIN
-        self.hi = np.array(hi, np.float64).reshape(-1, 2) + FOOT_MARGIN
-        self.floor = float(scene.performance_space[2])
-        yaw, self.shift = 0.0, np.zeros(2)
-        if scene.planes and abs(scene.planes[0].normal[2]) < 1e-6:  # the preset turned and moved onto the plane
-            n, pn = np.asarray(scene.planes[0].normal, float), np.asarray(app.plane_normal, float)
-            yaw = float(np.arctan2(n[1], n[0]) - np.arctan2(pn[1], pn[0]))
-            yaw = (yaw + np.pi / 2) % np.pi - np.pi / 2  # a normal and its opposite are one plane
-            self.shift = (n * float(np.dot(np.asarray(scene.planes[0].point, float) - app.plane_point, n)))[:2]
-        c, s = np.cos(yaw), np.sin(yaw)
-        self.R = np.array([[c, -s], [s, c]])
-
-    @classmethod
-    def of_scene(cls, scene) -> "Footprint | None":
-        """The scene's footprint, or None (no apparatus preset: the support's height is the landing's)."""
-        return None if getattr(scene, "apparatus", None) is None else cls(scene)
-
-    def over(self, xy: np.ndarray) -> bool:
-        """Whether the ground point ``xy`` (2,) lies over the apparatus."""
-        q = (np.asarray(xy, np.float64) - self.shift) @ self.R  # into the preset's frame
-        return bool(np.any(np.all((q >= self.lo) & (q <= self.hi), axis=1)))
-
-    def landing(self, fl: Flight) -> Flight:
-        """The flight landing on the floor where it comes down to its support's height off the apparatus."""
-        floor = self.floor + STAND_HEIGHT
-        if fl.land_z <= floor or self.over(fl.predict(np.array([fl.landing_frame()]))[0, :2]):
-            return fl
-        return replace(fl, land_z=floor)
-
-
 class FlightKeeper:
     """Every track's recent points and the target's flights (see the module docstring).
 
-    fps: frames per second; counts: the tracker's counters (``ballistic_points``); footprint: a
-    :class:`Footprint` (None: land at the support's height). Use per run of
+    fps: frames per second; counts: the tracker's counters (``ballistic_points``). Use per run of
     final frames ``a..b`` with the target's decision per frame: ``rows = keeper.fill(a, target,
     rows)`` (rows: every track's points, frame order); :meth:`airborne` for the handover.
     """
 
-    def __init__(self, fps: float, counts: dict, footprint: Footprint | None = None):
-        self.fps, self.counts, self.footprint = float(fps), counts, footprint
+    def __init__(self, fps: float, counts: dict):
+        self.fps, self.counts = float(fps), counts
         self.keep = int(round(SUPPORT_SECONDS * fps))
         self.rows: TargetRows | None = None  # every track's points of the last SUPPORT_SECONDS
 
@@ -201,8 +153,7 @@ class FlightKeeper:
         fit = fit[h.frame[fit] > h.frame[fit[-1]] - int(1.5 * FIT_FRAMES)]  # no older than the fit's reach
         if len(fit) < MIN_POINTS:
             return None
-        fl = fit_flight(h.frame[fit], h.xyz[fit], self.fps, h.bottom_z[fit[-1]], float(h.xyz[i, 2].min()))
-        return fl if self.footprint is None or fl is None else self.footprint.landing(fl)
+        return fit_flight(h.frame[fit], h.xyz[fit], self.fps, h.bottom_z[fit[-1]], float(h.xyz[i, 2].min()))
 
     def airborne(self, track: int, upto: int | None = None) -> Flight | None:
         """The flight at the last point of ``track`` up to ``upto`` if it is airborne there, else None."""

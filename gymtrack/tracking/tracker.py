@@ -79,7 +79,7 @@ from .reconstruct import cluster_members, fallback_segments, opposite_clusters, 
 from .single_view import IoUTracker
 from .single_view_motion import MotionIoUTracker, needs_motion
 from .handover import TargetHandover
-from .ballistic import FlightKeeper, Footprint
+from .ballistic import FlightKeeper
 from .target import TargetStage
 from .types import TrackerOutput, Tracks3D, WindowTracklets, WindowTracklets3D
 from .records import BoxTable, WindowRecords
@@ -150,7 +150,7 @@ class Tracker:
                        if m.fusion and p.fuse_plane else None)
         # frames a segment's end box is held (windows): max_age, or hold_seconds (capped at max_age)
         self.hold = p.max_age if m.hold_seconds is None else min(p.max_age, int(m.hold_seconds * scene.fps))
-        flights = FlightKeeper(scene.fps, self.counts, Footprint.of_scene(scene)) if m.ballistic else None  # (.ballistic: through the handover)
+        flights = FlightKeeper(scene.fps, self.counts) if m.ballistic else None  # (.ballistic: through the handover)
         self.target = TargetStage(rig, scene, TargetHandover(p.identify_frames, self.counts, flights=flights, plain=m.handover)
                                   if m.handover or m.ballistic else None)
         self.venue = DriftMonitor(rig, scene.fps, p.step, self.opposite, recalibrate, active=watch_cameras)  # knocked or unsynchronised cameras
