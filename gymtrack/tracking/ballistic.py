@@ -10,12 +10,12 @@ mass (their difference moves slowly against the flight's fall).
   points: ``x(t) = x0 + vx t``, ``y(t) = y0 + vy t``, ``z(t) = z0 + vz t - g t^2 / 2`` (t in
   seconds from the last point). Its rms residual and that of a straight line at constant speed
   decide whether the target is **airborne** (:meth:`Flight.airborne`): the parabola explains the
-  last :data:`FIT_FRAMES` points within :data:`RMS_MAX` and at least as well as constant velocity
-  does (:data:`RMS_TOL`: over a third of a second g bends the path by ~3 cm rms from a line, so a
-  body at rest or walking is explained better by the line; a 3 cm tolerance let a wrong, resting
-  target be held 0.5 s in place of the gymnast's own track), the body's bottom is off the floor (:data:`MIN_BOTTOM`) and the centre is
-  above the landing height. A standing body that passes is predicted to land at once: its
-  last point is held.
+  last :data:`FIT_FRAMES` points within :data:`RMS_MAX` and no worse than constant velocity does
+  (within :data:`RMS_TOL`: over a third of a second the two differ by a few centimetres, the
+  tracker's noise; a flight whose track breaks soon after take-off needs it), the body's bottom
+  is off the floor (:data:`MIN_BOTTOM`) and the parabola's apex is above the landing height by
+  more than the fit's noise (:data:`RMS_MAX`): a body at rest that passes the fit has no flight
+  left to predict (held in place, a wrong target at rest kept the gymnast's own track out).
 * :meth:`Flight.predict` -- the parabola until the centre comes down to the landing height (the
   lowest centre height of the target in the last :data:`SUPPORT_SECONDS`, the support it stood on
   before), then the landing point, held.
@@ -42,7 +42,7 @@ G = 9.81  #: m/s^2
 FIT_FRAMES = 10  #: the last points of the target fitted (a third of a second at 30 fps)
 MIN_POINTS = 6  #: fewer points in the fit's reach: no flight
 RMS_MAX = 0.08  #: metres: the parabola's rms residual at most (twice the two-view tracker's centre noise in flight)
-RMS_TOL = 0.0  #: metres: the parabola explains the points at least as well as constant velocity
+RMS_TOL = 0.03  #: metres: the parabola's rms residual exceeds constant velocity's by no more (noise)
 MIN_BOTTOM = 0.3  #: metres: the body's bottom above the floor, or it is standing or running
 SUPPORT_SECONDS = 2.0  #: the landing height is the lowest centre height of this last stretch
 MAX_SECONDS = 1.5  #: a prediction reaches this far past the last point at most (a vault's flight is under 1.5 s)
@@ -69,7 +69,9 @@ class Flight:
     def airborne(self) -> bool:
         """The parabola holds and explains the points better than constant velocity, off the floor."""
         off = not np.isfinite(self.bottom) or self.bottom > MIN_BOTTOM
-        return bool(self.rms <= RMS_MAX and self.rms <= self.rms_line + RMS_TOL and off and self.p[2] > self.land_z)
+        apex = self.p[2] + max(float(self.v[2]), 0.0) ** 2 / (2 * G)
+        # a body within the fit's noise of its landing height has no flight left to predict (at rest)
+        return bool(self.rms <= RMS_MAX and self.rms <= self.rms_line + RMS_TOL and off and apex > self.land_z + RMS_MAX)
 
     def landing_frame(self) -> float:
         """The (fractional) frame at which the centre comes down to ``land_z``."""
