@@ -37,6 +37,10 @@ from ._kernels import drift as kernels
 __all__ = ["DriftMonitor", "turn_pixels", "fit_rotation"]
 
 BASELINE_SECONDS = 5.0  # the seconds of residuals before the last one: where the camera was
+#: frames: the least-squares offset that names a camera out of sync. Clean simulated routines
+#: give up to 0.67 frames (the demo's high bar: 0.53-0.60) and a camera one frame late 0.2-0.75,
+#: so one frame is left to ``gymtrack sync``; three frames late give 1.5 or more
+SYNC_MIN_FRAMES = 1.0
 RECENT_SECONDS = 1.0  # a camera's residual must have stepped away for this long
 EVERY_WINDOWS = 3  # windows pooled into a sample (enough points for a steady median)
 MIN_DEG = 0.3  # the smallest step reported (below: how much the box centres' agreement wanders)
@@ -269,7 +273,7 @@ class DriftMonitor:
                           f"follow its points' motion, {s['estimate']:+.2f} frames): run gymtrack sync", GymtrackWarning,
                           stacklevel=3)
 
-    def sync_suspects(self, min_frames: float = 0.5) -> list[dict]:
+    def sync_suspects(self, min_frames: float = SYNC_MIN_FRAMES) -> list[dict]:
         """Cameras whose residuals follow their points' motion: ``[{camera, offset, frames}]`` for a
         least-squares offset of ``min_frames`` or more (``offset`` as scene.yaml's frame_offsets)."""
         out = []
