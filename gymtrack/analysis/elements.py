@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.ndimage import gaussian_filter1d
 
+from ..turns import full_turns
 from .flights import runs
 from .support import ANKLES, NONE
 
@@ -34,10 +35,8 @@ STILL_MPS = 0.30  #: a foot slower than this (and on the floor) is planted
 HOLD_S, HOLD_MPS, SPEED_HALF_S = 1.0, 0.10, 0.1
 HOLD_SDS, HOLD_GAP = 3.0, 2  #: a joint is fast when its speed less 3 sd of noise passes HOLD_MPS; gaps of 2 rows close
 TURN_MIN_DEG, TURN_RATE_DEG_S, TURN_TRAVEL_M, TURN_AFTER_S = 85.0, 30.0, 0.5, 0.3
-FULL_TURN_TOL = 10.0  #: degrees
 TURN_SMOOTH_S = 0.05  #: the heading's Gaussian smoothing (s) before its rate is read
 GRIP_GAP_S = 0.15  #: a hand seen off the bar this briefly (joint noise) still holds it
-CIRCLE_MAX_S = 3.0  #: a circle is a swing: one turn in at most this long
 
 
 def _sd(v: np.ndarray) -> float | None:
@@ -140,36 +139,16 @@ def holds(frame: np.ndarray, X: np.ndarray, sigma: np.ndarray, incl: np.ndarray,
 
 
 def circles(frame: np.ndarray, som: np.ndarray, grip: np.ndarray, fps: float) -> list[dict]:
-    """One circle record per full turn of somersault (degrees, (M,)) while the hands hold a bar:
-    inside each run of one rotation direction (a swing's reversal starts a new run), counted from
-    the run's start; a turn short of 360 by under :data:`FULL_TURN_TOL` counts (sampling)."""
+    """One circle record per full turn of somersault (degrees, (M,)) while the hands hold a bar
+    (:func:`gymtrack.turns.full_turns` on each run of grip, brief gaps of :data:`GRIP_GAP_S` closed
+    and the somersault interpolated across them)."""
     out = []
     for a, b in merge(runs(grip & np.isfinite(som), frame), int(round(GRIP_GAP_S * fps))):
-        s = np.interp(np.arange(a, b + 1), np.flatnonzero(np.isfinite(som[a:b + 1])) + a, som[a:b + 1][np.isfinite(som[a:b + 1])])
-        if len(s) < 3:
-            continue
-        rate = np.gradient(s)
-        sign = np.where(np.abs(rate) > 0.5, np.sign(rate), 0.0)
-        idx = np.where(sign != 0, np.arange(len(s)), 0)
-        np.maximum.accumulate(idx, out=idx)
-        sign = sign[idx]  # a pause keeps the direction it had
-        cuts = np.flatnonzero(np.diff(sign) != 0) + 1
-        for p, q in zip(np.concatenate([[0], cuts]), np.concatenate([cuts - 1, [len(s) - 1]])):
-            d = sign[p]
-            if d == 0:
-                continue
-            prog = d * (s[p:q + 1] - s[p])
-            k, start = 1, p
-            while True:
-                hit = np.flatnonzero(prog >= 360.0 * k - FULL_TURN_TOL)
-                if hit.size == 0:
-                    break
-                end = p + int(hit[0])
-                if (frame[a + end] - frame[a + start]) > CIRCLE_MAX_S * fps:
-                    break  # a slow turn through held positions (rings) is no circle
-                out.append({"kind": "circle", "start_frame": int(frame[a + start]), "end_frame": int(frame[a + end]),
-                            "turns": 1, "direction": int(d)})
-                start, k = end + 1, k + 1
+        ok = np.isfinite(som[a:b + 1])
+        s = np.interp(np.arange(a, b + 1), np.flatnonzero(ok) + a, som[a:b + 1][ok])
+        for start, end, d in full_turns(s, frame[a:b + 1], fps):
+            out.append({"kind": "circle", "start_frame": int(frame[a + start]), "end_frame": int(frame[a + end]),
+                        "turns": 1, "direction": int(d)})
     return out
 
 

@@ -32,8 +32,8 @@ simulator's exact state, never to a measured skeleton:
   over the slow ends of its neighbours.
 - circle: one element per full 360 deg of the contract's somersault (as the flights') while the
   hands hold the bar (the builder's grip phases: giants, swings, casts, kips, holds), counted from
-  the start of each run of one direction (less :data:`FULL_TURN_TOL_DEG`: a giant from handstand
-  to handstand, sampled, stops a degree or two short), as the analysis counts them: a cast to
+  the start of each run of one direction (by :func:`gymtrack.turns.full_turns`, the analysis' own
+  rule: a giant from handstand to handstand, sampled, stops a degree or two short of 360): a cast to
   handstand that runs on into giants turns with them, and its half turn counts.
 - turn: a turn on support and on the spot, of at least 90 deg (less 5 deg: :data:`MIN_TURN_DEG`),
   rounded to 90: a pivot (beam), a turn standing (to face the judges, the apparatus), and the
@@ -46,6 +46,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..apparatus import Apparatus
+from ..turns import full_turns
 
 UPRIGHT_WINDOW_S = 1.5  #: the contract's window before take-off and after landing
 UPRIGHT_TOL_DEG = 10.0  #: frames this close to the window's most upright one count as upright
@@ -56,9 +57,6 @@ MIN_FLIGHT_S = 0.15
 HOLD_SPEED = 0.1  #: m/s
 MIN_HOLD_S = 1.0
 MIN_TURN_DEG = 85.0  #: "at least 90 deg", less a frame's worth (a turn to face the judges ends a hair short)
-FULL_TURN_TOL_DEG = 10.0  #: a giant sampled at 30 fps stops within a frame's rotation of its handstand
-TURN_STILL_DEG = 0.5  #: degrees a frame: a slower somersault on the grip (a hold's sway) keeps its direction
-CIRCLE_MAX_S = 3.0  #: a circle is a swing: one turn in at most this long
 NO_COM = ("the simulator has no mass model (its body centre is the box centre, not the centre of mass): "
           "the true value is the analysis of gt/keypoints_3d.csv")
 
@@ -226,36 +224,12 @@ def grip_runs(grips: list[dict]) -> list[tuple[int, int]]:
 
 
 def _circles(grips: list[dict], som: np.ndarray, fps: float) -> list[dict]:
-    """One element per full turn of somersault in a run of one direction while the hands hold the
-    bar: each grip run (:func:`grip_runs`) is cut where the somersault turns back (a swing's
-    turning point; a turn slower than :data:`TURN_STILL_DEG` a frame keeps its direction), and the
-    full turns are counted from each part's start, each within :data:`CIRCLE_MAX_S` (a slow turn
-    through held positions, a press on the rings, is no circle)."""
+    """One element per full turn of somersault while the hands hold the bar: the analysis' rule
+    (:func:`gymtrack.turns.full_turns`) on each grip run (:func:`grip_runs`)."""
     out = []
     for a, b in grip_runs(grips):
-        s = som[a:b + 1]
-        if len(s) < 3:
-            continue
-        step = np.diff(s)
-        sign = np.where(np.abs(step) > TURN_STILL_DEG, np.sign(step), 0.0)
-        idx = np.where(sign != 0, np.arange(len(sign)), 0)
-        sign = sign[np.maximum.accumulate(idx)]  # a pause keeps the direction it had
-        cuts = np.flatnonzero(np.diff(sign) != 0) + 1  # step i runs from frame i to i + 1
-        for p, q in zip(np.concatenate([[0], cuts]), np.concatenate([cuts, [len(sign)]])):
-            d = sign[p]
-            if d == 0:
-                continue
-            prog = d * (s[p:q + 1] - s[p])
-            k, start = 1, p
-            while True:
-                hit = np.flatnonzero(prog >= 360.0 * k - FULL_TURN_TOL_DEG)
-                if hit.size == 0:
-                    break
-                end = p + int(hit[0])
-                if end - start > CIRCLE_MAX_S * fps:
-                    break
-                out.append({"kind": "circle", "start_frame": a + start + 1, "end_frame": a + end + 1, "turns": 1})
-                start, k = end + 1, k + 1
+        for start, end, _ in full_turns(som[a:b + 1], np.arange(a, b + 1), fps):
+            out.append({"kind": "circle", "start_frame": a + start + 1, "end_frame": a + end + 1, "turns": 1})
     return out
 
 
