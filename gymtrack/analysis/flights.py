@@ -35,6 +35,7 @@ V_MAX = 12.0  #: m/s: the centre of mass moves no faster (a sprinter's top speed
 HANDSTAND = 150.0  #: degrees: the contract's handstand (its hold position)
 STILL_DEG_S = 45.0  #: deg/s: a long axis turning slower than this holds its position (a giant passes its handstand at 150+)
 STILL_SPAN_S = 0.1  #: s: the turn rate over this much either side of a frame
+NO_TURN_DEG = 45.0  #: degrees: a run whose somersault spans less does not turn over (its box centre keeps to its centre of mass)
 PARABOLA_CHI = 2.0  #: the centre of mass' weighted rms residual (in sd) within which one parabola holds
 
 
@@ -110,8 +111,26 @@ def _seen(frame, com, fps, i, j) -> bool:
     return bool(np.isfinite(d) and d <= V_MAX * abs(frame[i] - frame[j]) / fps)
 
 
+def _thrown(t: np.ndarray, z: np.ndarray, xy: np.ndarray | None, sz) -> bool | None:
+    """Whether one point (heights ``z``, horizontal path ``xy`` (n, 2) or None) moves like a thrown
+    body: fitted vertical acceleration within BALLISTIC x g of -g and horizontal acceleration within
+    BALLISTIC x g of 0, each or within 3 sd of it; None where the heights are too few to tell."""
+    az, sd = fall_rate(t, z, sz)
+    if not np.isfinite(az):
+        return None
+    if abs(az + G) > max(BALLISTIC * G, 3 * sd):
+        return False
+    if xy is None or not np.isfinite(xy).all():
+        return True
+    (ax, sx), (ay, sy) = fall_rate(t, xy[:, 0], sz), fall_rate(t, xy[:, 1], sz)
+    ah = np.hypot(ax, ay)
+    sh = np.hypot(ax * sx, ay * sy) / ah if ah > 0 else max(sx, sy)
+    return bool(ah <= max(BALLISTIC * G, 3 * sh))
+
+
 def find_flights(frame: np.ndarray, support: np.ndarray, fps: float, com_z: np.ndarray, box_z: np.ndarray,
-                 sigma_z: np.ndarray | None = None, com: np.ndarray | None = None, may_hold: np.ndarray | None = None
+                 sigma_z: np.ndarray | None = None, com: np.ndarray | None = None, may_hold: np.ndarray | None = None,
+                 box_xy: np.ndarray | None = None, somersault: np.ndarray | None = None
                  ) -> tuple[list[tuple[int, int]], list[tuple[int, int]]]:
     """Row ranges (first, last) of the flights -- support none for at least MIN_FLIGHT_S, and the
     centre of mass or the centre of the joints' box falling like a thrown body (fitted acceleration
@@ -122,7 +141,16 @@ def find_flights(frame: np.ndarray, support: np.ndarray, fps: float, com_z: np.n
     sigma_z: (M,) the heights' sd (m) per row (the fits are weighted by it); com: (M, 3) the centre
     of mass (None: the take-off and landing are not checked); may_hold: (M,) bool, a hand lies within
     reach of a bar given its noise (:func:`.support.hands_may_hold`): a run through which a hand
-    may hold the bar at every row is a grip the noise hid, not a flight."""
+    may hold the bar at every row is a grip the noise hid, not a flight; box_xy: (M, 2) the horizontal
+    centre of the joints' box; somersault: (M,) degrees. In the air no horizontal force acts: where
+    the body does not turn over (the somersault spans under :data:`NO_TURN_DEG` through the run),
+    the point read (the centre of mass with ``com``'s x, y, the box centre with ``box_xy``) must
+    also keep its horizontal speed (acceleration within BALLISTIC x g of 0, or 3 sd). A coach's
+    lift whose start the pose stage measured late (the skeleton left standing, then catching up by
+    0.3 m in a frame) fits -g vertically, but the catch-up swings the upright body's centre sideways
+    and back at 6-20 m/s^2. A body turning over moves its box centre (and a body model's centre of
+    mass) off a line: the simulated vault's pre-flight turns the body over from the springboard to
+    the table in 0.25 s, its box centre 5-6 m/s^2 off a line."""
     flights, lifted = [], []
     for a, b in runs(support == NONE, frame):
         if (frame[b] - frame[a] + 1) / fps < MIN_FLIGHT_S - 1e-9:
@@ -135,9 +163,11 @@ def find_flights(frame: np.ndarray, support: np.ndarray, fps: float, com_z: np.n
             continue
         t = frame[a:b + 1] / fps
         sz = sigma_z[a:b + 1] if sigma_z is not None and np.isfinite(sigma_z[a:b + 1]).all() else 0.0
-        fits = [fall_rate(t, com_z[a:b + 1], sz), fall_rate(t, box_z[a:b + 1], sz)]
-        free = any(np.isfinite(x) and abs(x + G) <= max(BALLISTIC * G, 3 * sd) for x, sd in fits) \
-            or not any(np.isfinite(x) for x, _ in fits)
+        som = somersault[a:b + 1] if somersault is not None else np.array([np.nan])
+        upright = bool(np.isfinite(som).any() and np.nanmax(som) - np.nanmin(som) < NO_TURN_DEG)
+        verdicts = [_thrown(t, com_z[a:b + 1], com[a:b + 1, :2] if upright and com is not None else None, sz),
+                    _thrown(t, box_z[a:b + 1], box_xy[a:b + 1] if upright and box_xy is not None else None, sz)]
+        free = any(v is True for v in verdicts) or all(v is None for v in verdicts)
         (flights if free else lifted).append((a, b))
     return flights, lifted
 
