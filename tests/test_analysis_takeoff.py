@@ -53,3 +53,29 @@ def test_held_handstand_agrees_with_the_ground_truths_rule(rate):
     want = gt_elements.held_handstand(axis, incl, FPS)
     assert np.array_equal(got, want)
     assert got.any() == (rate < 45.0)
+
+
+def test_a_window_frame_without_a_twist_reading_gives_way_to_the_nearest_read_row():
+    """The most upright frame before take-off is the poses' first row, whose twist was not read (no
+    read row before it to interpolate from): the twist counts from the nearest read row towards the
+    flight, where it was None; the half twist in the air is counted, the somersault still from the
+    upright frame."""
+    M = 40
+    incl = np.concatenate([np.full(2, 5.0), np.full(8, 20.0), np.full(20, 30.0), np.full(10, 10.0)])
+    twist = np.concatenate([np.full(10, 0.0), np.linspace(0, 180, 20), np.full(10, 180.0)])
+    twist[:2] = np.nan  # the first rows: unread
+    rows = {"somersault": np.zeros(M), "inclination": incl, "twist": twist, "com_x": np.zeros(M),
+            "com_y": np.zeros(M), "com_z": np.full(M, 1.0), "split": np.zeros(M)}
+    for side in ("left", "right"):
+        rows[f"{side}_hip"] = rows[f"{side}_knee"] = np.full(M, 175.0)
+    cols = {k: v[None] for k, v in rows.items()}
+    sup = np.full(M, FLOOR)
+    sup[10:30] = NONE
+    frame = np.arange(100, 100 + M)
+    el = flight_elements(frame, cols, sup, FPS, [(10, 29)])[0]
+    assert el["rotation_from_frame"] == 101 and el["twist_from_frame"] == 102
+    assert el["twists"] == 0.5 and el["saltos"] == 0.0
+    # a twist read at the window's frame keeps the window
+    cols["twist"][0, :2] = 0.0
+    el = flight_elements(frame, cols, sup, FPS, [(10, 29)])[0]
+    assert el["twists"] == 0.5 and "twist_from_frame" not in el

@@ -334,7 +334,15 @@ def flight_elements(frame: np.ndarray, cols: dict, support: np.ndarray, fps: flo
         el["rotation_from_frame"], el["rotation_to_frame"] = int(frame[i0]), int(frame[i1])
         el["rotation_from_position"] = pos0 if i0 != a else "flight"
         vals["somersault_deg"] = som[:, i1] - som[:, i0]
-        vals["twist_deg"] = tw[:, i1] - tw[:, i0]
+        # a window frame the twist was not read at (before the first read row or after the last: no
+        # interpolation reaches it) gives way to the read row nearest it towards the flight
+        j0, j1 = _read_towards(tw[0], i0, a), _read_towards(tw[0], i1, b)
+        if (j0, j1) != (i0, i1) and j0 is not None and j1 is not None:
+            el["twist_from_frame"], el["twist_to_frame"] = int(frame[j0]), int(frame[j1])
+            i0t, i1t = j0, j1
+        else:
+            i0t, i1t = i0, i1
+        vals["twist_deg"] = tw[:, i1t] - tw[:, i0t]
         vals["airborne_somersault_deg"] = som[:, b] - som[:, a]
         vals["airborne_twist_deg"] = tw[:, b] - tw[:, a]
         for m in ("min_hip", "min_knee"):
@@ -379,6 +387,13 @@ def flight_elements(frame: np.ndarray, cols: dict, support: np.ndarray, fps: flo
             el["_landing_row"] = b + 1
         out.append(el)
     return out
+
+
+def _read_towards(v: np.ndarray, i: int, j: int) -> int | None:
+    """The row nearest ``i`` on the way to ``j`` (inclusive) where ``v`` is finite; None if none is."""
+    rows = np.arange(i, j + 1) if j >= i else np.arange(i, j - 1, -1)
+    ok = rows[np.isfinite(v[rows])]
+    return int(ok[0]) if ok.size else None
 
 
 def _why(name: str) -> str:
