@@ -79,3 +79,26 @@ def test_a_window_frame_without_a_twist_reading_gives_way_to_the_nearest_read_ro
     cols["twist"][0, :2] = 0.0
     el = flight_elements(frame, cols, sup, FPS, [(10, 29)])[0]
     assert el["twists"] == 0.5 and "twist_from_frame" not in el
+
+
+def test_a_pikes_straight_knees_are_read_with_the_layouts_noise_allowance():
+    """A pike (hips closed to 40 deg, knees straight at 175) whose lower knee the pose stage read
+    at 127 deg at the most closed frame, with a 6 deg sd: within 2 sd of 135, still a pike (it read
+    "open"); a knee measured at 127 deg with a 1 deg sd is bent, "open"; exact (no sd): the plain rule."""
+    from gymtrack.analysis.flights import SHAPES, shape_of
+
+    M = 20
+    hip = np.concatenate([np.linspace(170, 40, 10), np.linspace(40, 170, 10)])
+    knee = np.full(M, 175.0)
+    knee_l = knee.copy()
+    knee_l[9] = 127.0  # the most closed frame: one knee read 48 deg bent
+    cols = {"left_hip": hip[None], "right_hip": hip[None], "left_knee": knee_l[None], "right_knee": knee[None]}
+
+    def sd(deg):
+        return {f"{s}_{j}": np.full(M, deg) for s in ("left", "right") for j in ("hip", "knee")}
+
+    assert SHAPES[shape_of(cols, 0, M - 1, sd(6.0))[0][0]] == "pike"
+    assert SHAPES[shape_of(cols, 0, M - 1, sd(1.0))[0][0]] == "open"
+    assert SHAPES[shape_of(cols, 0, M - 1)[0][0]] == "open"
+    cols["left_knee"] = knee[None]
+    assert SHAPES[shape_of(cols, 0, M - 1)[0][0]] == "pike"

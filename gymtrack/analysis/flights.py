@@ -269,7 +269,8 @@ def shape_of(cols: dict, a: int, b: int, sd: dict | None = None) -> tuple[np.nda
     layout's "hips and knees >= 135 all through the middle half", read on a noisy measurement: the
     middle half's mean of the more bent side is at least :data:`SHAPE_OPEN`, and no frame lies under
     it by more than :data:`SHAPE_SDS` sd (a straight body measured with noise dips under 135 deg now
-    and then; a body open to 125 deg stays under 135 on average)."""
+    and then; a body open to 125 deg stays under 135 on average). The pike's straight knees at the
+    most closed frame are read with the same allowance."""
     def lo(name):  # the more bent side, each side with its own noise allowance
         left, right = cols[f"left_{name}"][:, a:b + 1], cols[f"right_{name}"][:, a:b + 1]
         if sd is not None:
@@ -285,7 +286,8 @@ def shape_of(cols: dict, a: int, b: int, sd: dict | None = None) -> tuple[np.nda
     S, n = hip.shape
     closed = np.where(np.isfinite(hip), hip, np.inf)
     k = np.argmin(closed, axis=1)
-    h_k, kn_k, kn_lo = hip[np.arange(S), k], knee[np.arange(S), k], knee_lo[np.arange(S), k]
+    h_k, kn_k = hip[np.arange(S), k], knee[np.arange(S), k]
+    kn_lo = knee_ok[np.arange(S), k]  # the pike's straight knees, with the layout's noise allowance
     q0, q1 = n // 4, max(n // 4 + 1, (3 * n + 3) // 4)
     with np.errstate(invalid="ignore"):
         layout = np.all((hip_ok[:, q0:q1] >= SHAPE_OPEN) & (knee_ok[:, q0:q1] >= SHAPE_OPEN), axis=1)
