@@ -310,3 +310,50 @@ def test_frames_whose_twist_lines_the_pose_stage_knew_were_bad_are_not_read(twis
     a = analyse(poses_of(bad), SCENE, samples=0, cutoff_hz=None, joint_sigma=sigma)
     f = a.flights[0]
     assert (f["saltos"], f["twists"]) == (2.0, 1.0)
+
+
+def _lift(late_rows: int = 3, seed: int = 0):
+    """A coach lifting a gymnast to the rings, as the pose stage measured it: the true centre of mass
+    rises from 1.0 m at 1.2 m/s, slowed by 1.5 m/s^2 (the lift's push, not gravity), for 0.5 s, then
+    the hands grip; the skeleton stays standing 0.45 m aside (the coach's body) for the lift's first
+    0.2 s and catches up with the body over ``late_rows`` rows. Returns frame, support, com (M, 3), sd."""
+    n_stand, n_lift, n_grip = 10, 16, 5
+    t = np.arange(n_lift) / 30.0
+    true = np.zeros((n_stand + n_lift + n_grip, 3))
+    true[:, 2] = 1.0
+    true[n_stand:n_stand + n_lift, 2] = 1.0 + 1.2 * t - 0.75 * t ** 2
+    true[n_stand + n_lift:, 2] = true[n_stand + n_lift - 1, 2] + 0.01 * np.arange(1, n_grip + 1)
+    com = true.copy()
+    late = n_stand + 6  # the skeleton left standing aside for 0.2 s of the lift (0.2 m below the body)
+    com[n_stand:late] = [0.45, 0.0, 1.0]
+    w = np.linspace(0, 1, late_rows + 2)[1:-1, None]  # the catch-up rows
+    com[late:late + late_rows] = (1 - w) * com[late - 1] + w * true[late + late_rows]
+    com += np.random.default_rng(seed).normal(0, 0.01, com.shape)
+    sup = np.full(len(com), 1, np.int8)  # floor
+    sup[late:n_stand + n_lift] = 0  # the measured skeleton leaves the floor at the catch-up
+    sup[n_stand + n_lift:] = 2  # the grip
+    return np.arange(len(com)), sup, com, np.full(len(com), 0.02)
+
+
+def test_a_coach_lift_measured_late_is_no_flight_where_a_thrown_body_is():
+    """The heights of the lift's catch-up fit -g (the vertical test alone reads a flight), but the
+    body's centre swings sideways and back: no thrown body does that. A real flight with the same
+    noise -- a parabola with g, 1 m/s forward -- stays a flight."""
+    from gymtrack.analysis.flights import G, fall_rate, find_flights
+
+    frame, sup, com, sd = _lift()
+    a, b = 16, 25
+    az, _ = fall_rate(frame[a:b + 1] / 30.0, com[a:b + 1, 2], sd[a:b + 1])
+    assert abs(az + G) <= 0.5 * G  # the vertical test alone is fooled
+    fl, _ = find_flights(frame, sup, 30.0, com[:, 2], com[:, 2], sd)
+    assert fl == [(a, b)]
+    fl, lifted = find_flights(frame, sup, 30.0, com[:, 2], com[:, 2], sd, com, box_xy=com[:, :2], somersault=np.zeros(len(com)))
+    assert fl == [] and lifted == [(a, b)]
+    # a thrown body: the same rows, a parabola with g and a steady horizontal speed
+    t = (frame - a) / 30.0
+    thrown = np.column_stack([1.0 * t, 0.2 * t, 1.0 + 3.0 * t - G / 2 * t ** 2])
+    thrown[:a] = thrown[a]
+    thrown += np.random.default_rng(1).normal(0, 0.01, thrown.shape)
+    fl, lifted = find_flights(frame, sup, 30.0, thrown[:, 2], thrown[:, 2], sd, thrown, box_xy=thrown[:, :2],
+                                somersault=np.zeros(len(com)))
+    assert fl == [(a, b)] and lifted == []

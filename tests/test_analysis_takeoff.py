@@ -53,3 +53,52 @@ def test_held_handstand_agrees_with_the_ground_truths_rule(rate):
     want = gt_elements.held_handstand(axis, incl, FPS)
     assert np.array_equal(got, want)
     assert got.any() == (rate < 45.0)
+
+
+def test_a_window_frame_without_a_twist_reading_gives_way_to_the_nearest_read_row():
+    """The most upright frame before take-off is the poses' first row, whose twist was not read (no
+    read row before it to interpolate from): the twist counts from the nearest read row towards the
+    flight, where it was None; the half twist in the air is counted, the somersault still from the
+    upright frame."""
+    M = 40
+    incl = np.concatenate([np.full(2, 5.0), np.full(8, 20.0), np.full(20, 30.0), np.full(10, 10.0)])
+    twist = np.concatenate([np.full(10, 0.0), np.linspace(0, 180, 20), np.full(10, 180.0)])
+    twist[:2] = np.nan  # the first rows: unread
+    rows = {"somersault": np.zeros(M), "inclination": incl, "twist": twist, "com_x": np.zeros(M),
+            "com_y": np.zeros(M), "com_z": np.full(M, 1.0), "split": np.zeros(M)}
+    for side in ("left", "right"):
+        rows[f"{side}_hip"] = rows[f"{side}_knee"] = np.full(M, 175.0)
+    cols = {k: v[None] for k, v in rows.items()}
+    sup = np.full(M, FLOOR)
+    sup[10:30] = NONE
+    frame = np.arange(100, 100 + M)
+    el = flight_elements(frame, cols, sup, FPS, [(10, 29)])[0]
+    assert el["rotation_from_frame"] == 101 and el["twist_from_frame"] == 102
+    assert el["twists"] == 0.5 and el["saltos"] == 0.0
+    # a twist read at the window's frame keeps the window
+    cols["twist"][0, :2] = 0.0
+    el = flight_elements(frame, cols, sup, FPS, [(10, 29)])[0]
+    assert el["twists"] == 0.5 and "twist_from_frame" not in el
+
+
+def test_a_pikes_straight_knees_are_read_with_the_layouts_noise_allowance():
+    """A pike (hips closed to 40 deg, knees straight at 175) whose lower knee the pose stage read
+    at 127 deg at the most closed frame, with a 6 deg sd: within 2 sd of 135, still a pike (it read
+    "open"); a knee measured at 127 deg with a 1 deg sd is bent, "open"; exact (no sd): the plain rule."""
+    from gymtrack.analysis.flights import SHAPES, shape_of
+
+    M = 20
+    hip = np.concatenate([np.linspace(170, 40, 10), np.linspace(40, 170, 10)])
+    knee = np.full(M, 175.0)
+    knee_l = knee.copy()
+    knee_l[9] = 127.0  # the most closed frame: one knee read 48 deg bent
+    cols = {"left_hip": hip[None], "right_hip": hip[None], "left_knee": knee_l[None], "right_knee": knee[None]}
+
+    def sd(deg):
+        return {f"{s}_{j}": np.full(M, deg) for s in ("left", "right") for j in ("hip", "knee")}
+
+    assert SHAPES[shape_of(cols, 0, M - 1, sd(6.0))[0][0]] == "pike"
+    assert SHAPES[shape_of(cols, 0, M - 1, sd(1.0))[0][0]] == "open"
+    assert SHAPES[shape_of(cols, 0, M - 1)[0][0]] == "open"
+    cols["left_knee"] = knee[None]
+    assert SHAPES[shape_of(cols, 0, M - 1)[0][0]] == "pike"

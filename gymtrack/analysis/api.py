@@ -197,11 +197,13 @@ def analyse(poses3d: Poses3D, scene: Scene, track_id: int | None = None, *, fps:
             cols[m][:] = np.nan
     frame = J.frame
     els = []
-    box_z = 0.5 * (np.nanmax(Xf[..., 2], axis=1) + np.nanmin(Xf[..., 2], axis=1))
+    box = 0.5 * (np.nanmax(Xf, axis=1) + np.nanmin(Xf, axis=1))
+    box_z = box[:, 2]
     sigma_z = com_sd(J.sigma, body)  # the centre of mass' height sd, from each joint's
     com0 = np.column_stack([cols["com_x"][0], cols["com_y"][0], cols["com_z"][0]])
     sup, bridged = bridge_contacts(frame, sup, fps, cols["com_z"][0], sigma_z, box_z)
-    fl, lifted = find_flights(frame, sup, fps, cols["com_z"][0], box_z, sigma_z, com0, hands_may_hold(Xf, J.sigma, geo))
+    fl, lifted = find_flights(frame, sup, fps, cols["com_z"][0], box_z, sigma_z, com0, hands_may_hold(Xf, J.sigma, geo),
+                              box[:, :2], cols["somersault"][0])
     # the angles' sd on the filtered joints: the low-pass keeps about cutoff / (fps / 2) of white noise's variance
     keep = np.sqrt(min(1.0, min(cutoff_hz, 0.4 * fps) / (fps / 2))) if cutoff_hz else 1.0
     axis = mid(Xf, "left_shoulder", "right_shoulder") - mid(Xf, "left_ankle", "right_ankle")  # A->S, the inclination's

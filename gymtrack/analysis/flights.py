@@ -35,6 +35,7 @@ V_MAX = 12.0  #: m/s: the centre of mass moves no faster (a sprinter's top speed
 HANDSTAND = 150.0  #: degrees: the contract's handstand (its hold position)
 STILL_DEG_S = 45.0  #: deg/s: a long axis turning slower than this holds its position (a giant passes its handstand at 150+)
 STILL_SPAN_S = 0.1  #: s: the turn rate over this much either side of a frame
+NO_TURN_DEG = 45.0  #: degrees: a run whose somersault spans less does not turn over (its box centre keeps to its centre of mass)
 PARABOLA_CHI = 2.0  #: the centre of mass' weighted rms residual (in sd) within which one parabola holds
 
 
@@ -110,8 +111,26 @@ def _seen(frame, com, fps, i, j) -> bool:
     return bool(np.isfinite(d) and d <= V_MAX * abs(frame[i] - frame[j]) / fps)
 
 
+def _thrown(t: np.ndarray, z: np.ndarray, xy: np.ndarray | None, sz) -> bool | None:
+    """Whether one point (heights ``z``, horizontal path ``xy`` (n, 2) or None) moves like a thrown
+    body: fitted vertical acceleration within BALLISTIC x g of -g and horizontal acceleration within
+    BALLISTIC x g of 0, each or within 3 sd of it; None where the heights are too few to tell."""
+    az, sd = fall_rate(t, z, sz)
+    if not np.isfinite(az):
+        return None
+    if abs(az + G) > max(BALLISTIC * G, 3 * sd):
+        return False
+    if xy is None or not np.isfinite(xy).all():
+        return True
+    (ax, sx), (ay, sy) = fall_rate(t, xy[:, 0], sz), fall_rate(t, xy[:, 1], sz)
+    ah = np.hypot(ax, ay)
+    sh = np.hypot(ax * sx, ay * sy) / ah if ah > 0 else max(sx, sy)
+    return bool(ah <= max(BALLISTIC * G, 3 * sh))
+
+
 def find_flights(frame: np.ndarray, support: np.ndarray, fps: float, com_z: np.ndarray, box_z: np.ndarray,
-                 sigma_z: np.ndarray | None = None, com: np.ndarray | None = None, may_hold: np.ndarray | None = None
+                 sigma_z: np.ndarray | None = None, com: np.ndarray | None = None, may_hold: np.ndarray | None = None,
+                 box_xy: np.ndarray | None = None, somersault: np.ndarray | None = None
                  ) -> tuple[list[tuple[int, int]], list[tuple[int, int]]]:
     """Row ranges (first, last) of the flights -- support none for at least MIN_FLIGHT_S, and the
     centre of mass or the centre of the joints' box falling like a thrown body (fitted acceleration
@@ -122,7 +141,16 @@ def find_flights(frame: np.ndarray, support: np.ndarray, fps: float, com_z: np.n
     sigma_z: (M,) the heights' sd (m) per row (the fits are weighted by it); com: (M, 3) the centre
     of mass (None: the take-off and landing are not checked); may_hold: (M,) bool, a hand lies within
     reach of a bar given its noise (:func:`.support.hands_may_hold`): a run through which a hand
-    may hold the bar at every row is a grip the noise hid, not a flight."""
+    may hold the bar at every row is a grip the noise hid, not a flight; box_xy: (M, 2) the horizontal
+    centre of the joints' box; somersault: (M,) degrees. In the air no horizontal force acts: where
+    the body does not turn over (the somersault spans under :data:`NO_TURN_DEG` through the run),
+    the point read (the centre of mass with ``com``'s x, y, the box centre with ``box_xy``) must
+    also keep its horizontal speed (acceleration within BALLISTIC x g of 0, or 3 sd). A coach's
+    lift whose start the pose stage measured late (the skeleton left standing, then catching up by
+    0.3 m in a frame) fits -g vertically, but the catch-up swings the upright body's centre sideways
+    and back at 6-20 m/s^2. A body turning over moves its box centre (and a body model's centre of
+    mass) off a line: the simulated vault's pre-flight turns the body over from the springboard to
+    the table in 0.25 s, its box centre 5-6 m/s^2 off a line."""
     flights, lifted = [], []
     for a, b in runs(support == NONE, frame):
         if (frame[b] - frame[a] + 1) / fps < MIN_FLIGHT_S - 1e-9:
@@ -135,9 +163,11 @@ def find_flights(frame: np.ndarray, support: np.ndarray, fps: float, com_z: np.n
             continue
         t = frame[a:b + 1] / fps
         sz = sigma_z[a:b + 1] if sigma_z is not None and np.isfinite(sigma_z[a:b + 1]).all() else 0.0
-        fits = [fall_rate(t, com_z[a:b + 1], sz), fall_rate(t, box_z[a:b + 1], sz)]
-        free = any(np.isfinite(x) and abs(x + G) <= max(BALLISTIC * G, 3 * sd) for x, sd in fits) \
-            or not any(np.isfinite(x) for x, _ in fits)
+        som = somersault[a:b + 1] if somersault is not None else np.array([np.nan])
+        upright = bool(np.isfinite(som).any() and np.nanmax(som) - np.nanmin(som) < NO_TURN_DEG)
+        verdicts = [_thrown(t, com_z[a:b + 1], com[a:b + 1, :2] if upright and com is not None else None, sz),
+                    _thrown(t, box_z[a:b + 1], box_xy[a:b + 1] if upright and box_xy is not None else None, sz)]
+        free = any(v is True for v in verdicts) or all(v is None for v in verdicts)
         (flights if free else lifted).append((a, b))
     return flights, lifted
 
@@ -239,7 +269,8 @@ def shape_of(cols: dict, a: int, b: int, sd: dict | None = None) -> tuple[np.nda
     layout's "hips and knees >= 135 all through the middle half", read on a noisy measurement: the
     middle half's mean of the more bent side is at least :data:`SHAPE_OPEN`, and no frame lies under
     it by more than :data:`SHAPE_SDS` sd (a straight body measured with noise dips under 135 deg now
-    and then; a body open to 125 deg stays under 135 on average)."""
+    and then; a body open to 125 deg stays under 135 on average). The pike's straight knees at the
+    most closed frame are read with the same allowance."""
     def lo(name):  # the more bent side, each side with its own noise allowance
         left, right = cols[f"left_{name}"][:, a:b + 1], cols[f"right_{name}"][:, a:b + 1]
         if sd is not None:
@@ -255,7 +286,8 @@ def shape_of(cols: dict, a: int, b: int, sd: dict | None = None) -> tuple[np.nda
     S, n = hip.shape
     closed = np.where(np.isfinite(hip), hip, np.inf)
     k = np.argmin(closed, axis=1)
-    h_k, kn_k, kn_lo = hip[np.arange(S), k], knee[np.arange(S), k], knee_lo[np.arange(S), k]
+    h_k, kn_k = hip[np.arange(S), k], knee[np.arange(S), k]
+    kn_lo = knee_ok[np.arange(S), k]  # the pike's straight knees, with the layout's noise allowance
     q0, q1 = n // 4, max(n // 4 + 1, (3 * n + 3) // 4)
     with np.errstate(invalid="ignore"):
         layout = np.all((hip_ok[:, q0:q1] >= SHAPE_OPEN) & (knee_ok[:, q0:q1] >= SHAPE_OPEN), axis=1)
@@ -304,7 +336,15 @@ def flight_elements(frame: np.ndarray, cols: dict, support: np.ndarray, fps: flo
         el["rotation_from_frame"], el["rotation_to_frame"] = int(frame[i0]), int(frame[i1])
         el["rotation_from_position"] = pos0 if i0 != a else "flight"
         vals["somersault_deg"] = som[:, i1] - som[:, i0]
-        vals["twist_deg"] = tw[:, i1] - tw[:, i0]
+        # a window frame the twist was not read at (before the first read row or after the last: no
+        # interpolation reaches it) gives way to the read row nearest it towards the flight
+        j0, j1 = _read_towards(tw[0], i0, a), _read_towards(tw[0], i1, b)
+        if (j0, j1) != (i0, i1) and j0 is not None and j1 is not None:
+            el["twist_from_frame"], el["twist_to_frame"] = int(frame[j0]), int(frame[j1])
+            i0t, i1t = j0, j1
+        else:
+            i0t, i1t = i0, i1
+        vals["twist_deg"] = tw[:, i1t] - tw[:, i0t]
         vals["airborne_somersault_deg"] = som[:, b] - som[:, a]
         vals["airborne_twist_deg"] = tw[:, b] - tw[:, a]
         for m in ("min_hip", "min_knee"):
@@ -349,6 +389,13 @@ def flight_elements(frame: np.ndarray, cols: dict, support: np.ndarray, fps: flo
             el["_landing_row"] = b + 1
         out.append(el)
     return out
+
+
+def _read_towards(v: np.ndarray, i: int, j: int) -> int | None:
+    """The row nearest ``i`` on the way to ``j`` (inclusive) where ``v`` is finite; None if none is."""
+    rows = np.arange(i, j + 1) if j >= i else np.arange(i, j - 1, -1)
+    ok = rows[np.isfinite(v[rows])]
+    return int(ok[0]) if ok.size else None
 
 
 def _why(name: str) -> str:
