@@ -1,0 +1,97 @@
+"""Regrouping: an opposite pair inside a dropped cluster goes on to the vertical plane (paper Section III-C).
+
+The cascade sends the clusters triangulation cannot use -- one view, or two opposite views -- to
+the vertical plane (Eq. 5-9). With two opposite cameras the gymnast's two segments agree under
+Eq. 2 whatever the depth (both rays lie near the line between the cameras), so complete
+linkage (Algorithm 1) readily adds a third view's segment of someone standing anywhere on that
+line: a coach or the next gymnast 5-8 m away. The wrong cluster triangulates to a body floating
+off the apparatus, and Eq. 4 or the floor's ghost test drops it -- with the gymnast's segments,
+which then reach no stage at all (the failure breakdown's ``unclustered``: on the simulated beam
+at n_cam = 2 most of the target's misses).
+
+Here the segments of the dropped clusters get the cascade's second chance: each view's segment
+is paired with its nearest opposite-view segment among them by Eq. 2 (below ``cluster_2d``, the
+nearest both ways), and each such pair goes to the plane stage as a group of its own (it may
+fuse only with its partner; Eq. 8 still decides). A segment of a pair that the plane does not
+fuse is left out, not kept as a one-view continuation (it belonged to a wrong cluster: the
+other people's segments put one view alone on the plane, metres off). Segments without such a
+partner stay dropped, as before.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .types import WindowTracklets3D
+
+__all__ = ["regroup", "regroup_pairs", "gymnast_only"]
+
+
+def regroup_pairs(tested: np.ndarray, kept: np.ndarray, D2: np.ndarray, camera: np.ndarray, opposite: np.ndarray,
+                  cut: float) -> tuple[np.ndarray, np.ndarray | None]:
+    """The opposite pairs among the segments of the clusters that Eq. 4 and the ghost test dropped.
+
+    tested: (M, C) members of the clusters before the tests (-1: none); kept: (M', C) those after
+    them; D2: (K, K) Eq. 2 distances of the window's segments; camera: (K,) their views;
+    opposite: (C, C) bool, the opposite camera pairs; cut: Eq. 2's threshold (``cluster_2d``).
+    Returns the pairs' segments (sorted) and (K,) group labels for the plane stage (0: any
+    segment; a pair: its own label), None when there is no pair."""
+    none = np.zeros(0, np.int64)
+    if not len(tested):
+        return none, None
+    gone = tested[~np.isin(tested.max(axis=1), kept[kept >= 0])]
+    seg = np.sort(gone[gone >= 0])
+    if len(seg) < 2:
+        return none, None
+    # each segment's nearest opposite-view segment of the whole window by Eq. 2
+    d = np.where(opposite[np.ix_(camera, camera)] & (D2 < cut), D2, np.inf)
+    best = d.argmin(axis=1)
+    best[~np.isfinite(d.min(axis=1))] = -1
+    mate = best[seg]
+    pair = (mate >= 0) & np.isin(mate, seg)
+    pair[pair] &= best[mate[pair]] == seg[pair]  # nearest both ways, both dropped
+    if not pair.any():
+        return none, None
+    groups = np.zeros(len(camera), np.int64)
+    groups[seg[pair]] = 1 + np.minimum(seg, mate)[pair]
+    return seg[pair], groups
+
+
+def gymnast_only(pl: WindowTracklets3D, regrouped: np.ndarray, performance_space: np.ndarray, target,
+                 counts: dict) -> WindowTracklets3D | None:
+    """The plane tracklets without those of ``regrouped`` segments that are not a gymnast on the
+    apparatus: one view alone (its partner did not fuse with it), or means that fail Eq. 13's
+    indicator (inside ``performance_space``, body top above ``target.h_top`` and bottom above
+    ``target.h_bot``). Two people's segments of a dropped cluster are a pair by Eq. 2 too and
+    meet on the plane by chance: a phantom standing in the air over the floor. Counted in
+    ``regrouped_left_out``; None when nothing is left."""
+    m = pl.members
+    mine = np.isin(m, regrouped).any(axis=1)
+    if not mine.any():
+        return pl
+    v = pl.valid
+    n = np.maximum(v.sum(axis=1), 1)
+    mean = np.where(v[..., None], pl.xyz, 0.0).sum(axis=1) / n[:, None]
+    top = np.where(v, pl.top_z, 0.0).sum(axis=1) / n
+    bottom = np.where(v, pl.bottom_z, 0.0).sum(axis=1) / n
+    lo, hi = performance_space[:3], performance_space[3:]
+    gymnast = (np.all((mean >= lo) & (mean <= hi), axis=1) & (top > target.h_top) & (bottom > target.h_bot)
+               & ((m >= 0).sum(axis=1) >= 2))
+    out = mine & ~gymnast
+    if not out.any():
+        return pl
+    counts["regrouped_left_out"] += int(out.sum())
+    pl = pl.subset(~out)
+    return pl if len(pl) else None
+
+
+def regroup(tested: np.ndarray, kept: np.ndarray, D2: np.ndarray, camera: np.ndarray, opposite: np.ndarray, cut: float,
+            to_plane: np.ndarray, floor_only: np.ndarray, counts: dict):
+    """The tracker's step: :func:`regroup_pairs`, its segments added to ``to_plane`` (sorted) and
+    taken out of ``floor_only`` (counted in ``segments_regrouped``). Returns the regrouped
+    segments, the plane stage's group labels (or None), ``to_plane`` and ``floor_only``."""
+    seg, groups = regroup_pairs(tested, kept, D2, camera, opposite, cut)
+    if not len(seg):
+        return seg, None, to_plane, floor_only
+    counts["segments_regrouped"] += len(seg)
+    return seg, groups, np.union1d(to_plane, seg), np.setdiff1d(floor_only, seg)
