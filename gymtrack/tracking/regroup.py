@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._kernels import regroup as kernels
 from .types import WindowTracklets3D
 
 __all__ = ["regroup", "regroup_pairs", "gymnast_only"]
@@ -34,27 +35,16 @@ def regroup_pairs(tested: np.ndarray, kept: np.ndarray, D2: np.ndarray, camera: 
     tested: (M, C) members of the clusters before the tests (-1: none); kept: (M', C) those after
     them; D2: (K, K) Eq. 2 distances of the window's segments; camera: (K,) their views;
     opposite: (C, C) bool, the opposite camera pairs; cut: Eq. 2's threshold (``cluster_2d``).
-    Returns the pairs' segments (sorted) and (K,) group labels for the plane stage (0: any
-    segment; a pair: its own label), None when there is no pair."""
-    none = np.zeros(0, np.int64)
-    if not len(tested):
-        return none, None
-    gone = tested[~np.isin(tested.max(axis=1), kept[kept >= 0])]
-    seg = np.sort(gone[gone >= 0])
-    if len(seg) < 2:
-        return none, None
-    # each segment's nearest opposite-view segment of the whole window by Eq. 2
-    d = np.where(opposite[np.ix_(camera, camera)] & (D2 < cut), D2, np.inf)
-    best = d.argmin(axis=1)
-    best[~np.isfinite(d.min(axis=1))] = -1
-    mate = best[seg]
-    pair = (mate >= 0) & np.isin(mate, seg)
-    pair[pair] &= best[mate[pair]] == seg[pair]  # nearest both ways, both dropped
-    if not pair.any():
-        return none, None
-    groups = np.zeros(len(camera), np.int64)
-    groups[seg[pair]] = 1 + np.minimum(seg, mate)[pair]
-    return seg[pair], groups
+    A pair: two dropped segments of opposite views, each the other's nearest opposite-view
+    segment of the whole window by Eq. 2, below ``cut``. Returns the pairs' segments (sorted)
+    and (K,) group labels for the plane stage (0: any segment; a pair: its own label), None when
+    there is no pair. One compiled call (:func:`._kernels.regroup.regroup_pairs`; it runs on
+    every window)."""
+    c = np.ascontiguousarray
+    groups = kernels.regroup_pairs(c(tested, np.int64), c(kept, np.int64), c(D2, np.float64), c(camera, np.int64),
+                                   c(opposite, np.bool_), float(cut))
+    seg = np.flatnonzero(groups)
+    return (seg, groups) if len(seg) else (seg, None)
 
 
 def gymnast_only(pl: WindowTracklets3D, regrouped: np.ndarray, performance_space: np.ndarray, target,
@@ -94,4 +84,9 @@ def regroup(tested: np.ndarray, kept: np.ndarray, D2: np.ndarray, camera: np.nda
     if not len(seg):
         return seg, None, to_plane, floor_only
     counts["segments_regrouped"] += len(seg)
-    return seg, groups, np.union1d(to_plane, seg), np.setdiff1d(floor_only, seg)
+    take = np.zeros(len(groups), bool)
+    take[to_plane] = True
+    take[seg] = True
+    if len(floor_only):  # (floor_only: the ghost test's segments; a regrouped one may go to the plane too)
+        floor_only = floor_only[groups[floor_only] == 0]
+    return seg, groups, np.flatnonzero(take), floor_only
