@@ -325,8 +325,7 @@ def test_regroup_leaves_the_vault_as_it_was(vault_2):
 
 
 def test_regroup_pairs_takes_mutually_nearest_opposite_views_of_dropped_clusters_only():
-    from gymtrack.tracking.regroup import gymnast_only, regroup_pairs
-    from gymtrack.tracking.types import WindowTracklets3D
+    from gymtrack.tracking.regroup import regroup_pairs
 
     # cameras 0 and 1 opposite, 2 and 3 opposite; segments 0..5 of views 0, 1, 2, 0, 1, 3
     camera = np.array([0, 1, 2, 0, 1, 3])
