@@ -11,7 +11,7 @@ choices as plain arguments, so no stage tests a mode's name. :data:`RECIPES` nam
   floor's ghost test, Eq. 4 on the tracklet's mean, the image-motion tracker at low
   frame rates, duplicate exclusion, the older track kept, Eq. 12 over the best-observed estimates,
   one view alone only inside the performance space, the shorter end-box hold, the target's
-  handover and its ballistic flights; ray/plane fusion and
+  handover and its ballistic flights, a dropped cluster's opposite pairs regrouped on the plane; ray/plane fusion and
   online plane refinement where the scene asks for them).
 
 Ingredients built but not in cascade+ (:data:`OPTIONAL`: the benchmark showed no gain) are added
@@ -72,6 +72,10 @@ class Method:
     ballistic: in the air the target's centre is predicted by a parabola under g
         (:mod:`gymtrack.tracking.ballistic`): a target whose track ended in flight is held and
         continued by the track born where the parabola puts it; held frames get the predicted point.
+    regroup: in a triangulated cluster that Eq. 4 or the ghost test drops, each pair of opposite
+        views nearest each other by Eq. 2 goes on to the plane stage as a pair of its own
+        (:mod:`gymtrack.tracking.regroup`): a third view's wrong segment no longer takes the
+        gymnast's opposite pair down with it.
     name: what results and reports call it.
     """
 
@@ -90,6 +94,7 @@ class Method:
     hold_seconds: float | None = None
     handover: bool = False
     ballistic: bool = False
+    regroup: bool = False
     name: str = "custom"
 
     def __post_init__(self) -> None:
@@ -121,7 +126,7 @@ RECIPES: dict[str, Method] = {
     "plane": Method(plane="all", name="plane"),
     "cascade+": Method(image_motion=True, outliers_at_mean=True, floor=True, ghost_test=True, fusion=True,
                        keep_older=True, exclusion=True, best_estimates=True, solo_inside=True,
-                       refine_plane=True, hold_seconds=0.2, handover=True, ballistic=True,
+                       refine_plane=True, hold_seconds=0.2, handover=True, ballistic=True, regroup=True,
                        name="cascade+"),
 }
 MODES: tuple[str, ...] = tuple(RECIPES)

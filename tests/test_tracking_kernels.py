@@ -124,3 +124,38 @@ def test_intersect_rays_plane_matches_the_numpy_formula(rng):
     np.testing.assert_array_equal(status, sr)
     np.testing.assert_allclose(X, Xr, rtol=1e-12, atol=1e-12)
     assert set(np.unique(status)) == {0, 1, 2}
+
+
+def test_regroup_kernel_matches_its_numpy_reference():
+    from gymtrack.tracking.regroup import regroup_pairs
+    from reference.regroup import regroup_pairs_numpy
+
+    rng = np.random.default_rng(7)
+    found = 0
+    for _ in range(300):
+        C = int(rng.integers(2, 6))
+        K = int(rng.integers(0, 14))
+        camera = np.sort(rng.integers(0, C, K)).astype(np.int64)
+        D2 = rng.uniform(0, 0.6, (K, K))
+        D2 = (D2 + D2.T) / 2
+        D2[rng.random((K, K)) < 0.1] = np.nan
+        D2 = np.where(np.isnan(D2) | np.isnan(D2.T), np.nan, D2)  # symmetric NaNs, as Eq. 2's
+        D2[camera[:, None] == camera[None, :]] = np.inf
+        if K and rng.random() < 0.3:  # ties
+            D2 = np.round(D2, 1)
+        opposite = rng.random((C, C)) < 0.4
+        opposite = (opposite | opposite.T) & ~np.eye(C, dtype=bool)
+        labels = rng.integers(0, max(K, 1), K)
+        tested = np.full((len(np.unique(labels)), C), -1, np.int64)
+        for r, lab in enumerate(np.unique(labels)):
+            for k in np.flatnonzero(labels == lab):
+                tested[r, camera[k]] = k
+        kept = tested[rng.random(len(tested)) < 0.5]
+        seg, groups = regroup_pairs(tested, kept, D2, camera, opposite, 0.3)
+        ref_seg, ref_groups = regroup_pairs_numpy(tested, kept, D2, camera, opposite, 0.3)
+        assert seg.tolist() == ref_seg.tolist()
+        assert (groups is None) == (ref_groups is None)
+        if groups is not None:
+            assert groups.tolist() == ref_groups.tolist()
+            found += 1
+    assert found > 20  # the test saw pairs, not only empty answers

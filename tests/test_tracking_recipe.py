@@ -283,3 +283,89 @@ def test_handover_takes_the_near_newborn_only_and_reports_its_real_id():
     h2, sel2 = TargetHandover(30, {"target_handovers": 0}), SimpleNamespace(target=-1, last_target=5, rename=lambda *a: None)
     h2.step(frame, tid, xyz, {5: 9}, sel2)
     assert sel2.target == 5
+
+
+# ----------------------------------------------------------------------------- regroup
+@pytest.fixture(scope="module")
+def beam_2():
+    """A balance beam seen by two opposite cameras (n_cam = 2, 20 s; the seed of the seed-3 beam
+    and pommel suite's first beam routine): a third view's coach or gymnast, 5-8 m off the beam,
+    joins the gymnast's opposite pair under Eq. 2 for seconds."""
+    sim = simulate_routine("balance_beam", n_cam=2, seed=1576890651, seconds=20)
+    return sim.rig, sim.scene, sim.detections, sim
+
+
+def test_regroup_puts_the_dropped_clusters_opposite_pair_on_the_plane(beam_2):
+    on, off = _run(beam_2, PLUS, "beam2"), _run(beam_2, PLUS.without("regroup"), "beam2")
+    assert on.summary["segments_regrouped"] > 0 and "segments_regrouped" not in off.summary
+    sim = beam_2[3]
+    perf = sim.frames[sim.performing]
+
+    def near(res):  # performing frames whose target is within 0.5 m of the gymnast's true centre
+        rows = np.isin(res.target.frame, perf)
+        err = np.linalg.norm(res.target.xyz[rows] - sim.target_centre[res.target.frame[rows] - sim.frames[0]], axis=1)
+        return int(np.count_nonzero(err < 0.5))
+
+    # without it the gymnast is lost for seconds (its pair dropped with the wrong third view)
+    assert near(off) < 0.9 * len(perf) and near(on) > 0.97 * len(perf)
+    # the regrouped pairs are plane points of two views
+    assert np.any((on.tracks.source == 1) & (on.tracks.n_views == 2))
+
+
+def test_regroup_leaves_the_vault_as_it_was(vault_2):
+    # the crowd's dropped clusters hold opposite pairs of two people too: none may take the target
+    on, off = _run(vault_2, PLUS, "vault"), _run(vault_2, PLUS.without("regroup"), "vault")
+    assert on.summary["segments_regrouped"] > 0 and on.summary["regrouped_left_out"] > 0
+    sim = vault_2[3]
+    perf = sim.frames[sim.performing]
+    rows = [np.isin(r.target.frame, perf) for r in (on, off)]
+    for r, k in zip((on, off), rows):  # while performing: the same target
+        assert np.array_equal(r.target.frame[k], off.target.frame[rows[1]])
+    assert np.allclose(on.target.xyz[rows[0]], off.target.xyz[rows[1]])
+
+
+def test_regroup_pairs_takes_mutually_nearest_opposite_views_of_dropped_clusters_only():
+    from gymtrack.tracking.regroup import regroup_pairs
+
+    # cameras 0 and 1 opposite, 2 and 3 opposite; segments 0..5 of views 0, 1, 2, 0, 1, 3
+    camera = np.array([0, 1, 2, 0, 1, 3])
+    opposite = np.zeros((4, 4), bool)
+    opposite[0, 1] = opposite[1, 0] = opposite[2, 3] = opposite[3, 2] = True
+    D2 = np.full((6, 6), 1.0)
+    D2[0, 1] = D2[1, 0] = 0.02  # the gymnast's pair
+    D2[0, 2] = D2[2, 0] = D2[1, 2] = D2[2, 1] = 0.1  # the wrong third view
+    D2[3, 4] = D2[4, 3] = 0.05  # a pair in a kept cluster
+    D2[2, 5] = D2[5, 2] = 0.5  # opposite, but Eq. 2 says apart
+    tested = np.array([[0, 1, 2, -1], [3, 4, -1, -1], [-1, -1, -1, 5]])
+    kept = tested[1:2]
+    seg, groups = regroup_pairs(tested, kept, D2, camera, opposite, 0.3)
+    assert seg.tolist() == [0, 1]
+    assert groups[0] == groups[1] > 0 and groups[[2, 3, 4, 5]].tolist() == [0, 0, 0, 0]
+    # view 1's dropped segment nearer to a kept segment of view 0 than to its dropped partner: no pair
+    D2[1, 3] = D2[3, 1] = 0.01
+    seg, groups = regroup_pairs(tested, kept, D2, camera, opposite, 0.3)
+    assert len(seg) == 0 and groups is None
+    # nothing dropped: nothing regrouped
+    seg, groups = regroup_pairs(tested, tested, D2, camera, opposite, 0.3)
+    assert len(seg) == 0 and groups is None
+
+
+def test_gymnast_only_keeps_a_regrouped_pair_that_meets_eq13():
+    from types import SimpleNamespace
+    from gymtrack.tracking.regroup import gymnast_only
+    from gymtrack.tracking.types import WindowTracklets3D
+
+    W = 3
+    members = np.array([[0, 1, -1, -1], [2, 3, -1, -1], [4, -1, -1, -1], [5, 6, -1, -1]])
+    xyz = np.zeros((4, W, 3))
+    xyz[:, :, 2] = [[2.1], [1.1], [2.1], [2.1]]
+    top = np.array([[3.0] * W, [1.8] * W, [3.0] * W, [3.0] * W])  # the second: a phantom's top below h_top
+    bottom = np.array([[1.2] * W, [0.5] * W, [1.2] * W, [1.2] * W])
+    pl = WindowTracklets3D(0, xyz, top, bottom, np.ones((4, W), bool), np.ones((4, W), np.int8), np.ones((4, W), np.int64),
+                           members, np.full(4, -1))
+    counts = {"regrouped_left_out": 0}
+    target = SimpleNamespace(h_top=2.0, h_bot=0.6)
+    space = np.array([-4.0, -1.0, 0.0, 4.0, 1.0, 4.5])
+    left = gymnast_only(pl, np.array([0, 1, 2, 3, 4]), space, target, counts)
+    # kept: the gymnast's pair, and the pair of no regrouped segment; left out: the phantom, the lone view
+    assert left.members.tolist() == [[0, 1, -1, -1], [5, 6, -1, -1]] and counts["regrouped_left_out"] == 2

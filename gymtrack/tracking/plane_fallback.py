@@ -104,7 +104,7 @@ def _rules(threshold: float) -> PlaneRules:  # (one per threshold: built once, n
 def plane_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | None, rig: RigArrays,
                 planes: PlaneArrays, params, oracle: bool, prev_2d: np.ndarray, prev_seen: np.ndarray,
                 tracking_space: np.ndarray, performance_space: np.ndarray | None, counts: dict,
-                at_mean: bool = True) -> WindowTracklets3D | None:
+                at_mean: bool = True, groups: np.ndarray | None = None) -> WindowTracklets3D | None:
     """The tracker's plane stage for the segments ``to_plane`` (indices into ``segs``), one
     kernel call (:func:`._kernels.plane.plane_split`) doing what the tracker did around
     :func:`plane_stage`: segments Eq. 2 separates (``D2 >= cluster_2d``) or an oracle's ids
@@ -118,7 +118,7 @@ def plane_split(segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | No
     C = len(rig.K)
     xyz, top, bottom, valid, source, n_views, members, stats = plane_split_kernel(
         segs.box, segs.observed, segs.camera, segs.track2d, to_plane, _NO_D2 if D2 is None else D2,
-        float(params.cluster_2d), segs.track2d // C if oracle else NO_GROUP, prev_2d, prev_seen, rig, planes,
+        float(params.cluster_2d), segs.track2d // C if oracle else (NO_GROUP if groups is None else groups), prev_2d, prev_seen, rig, planes,
         _rules(float(params.cluster_plane)), tracking_space, float(params.max_speed), bool(at_mean),
         _NO_SPACE if performance_space is None else performance_space)
     fused, n_outliers, n_outside = stats.tolist()

@@ -75,6 +75,7 @@ from .linking import WindowLinker
 from .plane_fallback import plane_split
 from .plane_fit import REFINE_EVERY
 from .plane_refine import PlaneRefiner
+from .regroup import gymnast_only, regroup
 from .reconstruct import cluster_members, fallback_segments, opposite_clusters, outliers, outliers_at_mean, triangulate_clusters
 from .single_view import IoUTracker
 from .single_view_motion import MotionIoUTracker, needs_motion
@@ -159,6 +160,7 @@ class Tracker:
         self.refiner = PlaneRefiner(self.P, scene, self.planes[0], every) if m.refine_plane and every else None
         self._space_mean = self.space if m.outliers_at_mean else None  # Eq. 4 by the mean with the ghost test
         self._solo_space = self.perf_space if m.solo_inside else None  # one view alone only inside S_perf
+        self._regrouped, self._groups = np.zeros(0, np.int64), None  # this window's regrouped pairs (.regroup)
         # stream position
         self.first_frame: int | None = None
         self.last_frame: int | None = None
@@ -271,7 +273,7 @@ class Tracker:
         fallback, link; then the frames before the next window's start are final."""
         segs = self._timed("windows", self._cut, start)
         labels, D2 = self._timed("clustering", self._cluster, segs)
-        tri, to_plane = self._timed("triangulation", self._triangulate, segs, labels)
+        tri, to_plane = self._timed("triangulation", self._triangulate, segs, labels, D2)
         plane, floor = self._timed("plane", self._plane_fallback, segs, to_plane, D2)
         self._timed("linking", self._link, start, segs, tri, plane, floor)
         if self.refiner is not None and self.refiner.due():
@@ -319,7 +321,7 @@ class Tracker:
         D2 = tracklet_distances(segs, self.F)
         return complete_linkage(D2, self.params.cluster_2d), D2
 
-    def _triangulate(self, segs: WindowTracklets, labels: np.ndarray | None
+    def _triangulate(self, segs: WindowTracklets, labels: np.ndarray | None, D2: np.ndarray | None = None
                      ) -> tuple[WindowTracklets3D | None, np.ndarray]:
         """Stage 4: triangulation of multi-view clusters, outliers dropped. Returns the 3D
         tracklets (None when nothing was clustered) and the segments for the plane (sorted)."""
@@ -327,6 +329,7 @@ class Tracker:
         if labels is None:
             return None, np.arange(len(segs))
         fused = None
+        self._regrouped, self._groups = np.zeros(0, np.int64), None
         to_plane = self._floor_only = np.zeros(0, np.int64)
         if not len(segs):
             return None, to_plane
@@ -343,6 +346,7 @@ class Tracker:
         tri = triangulate_clusters(segs, members[multi], self.P)
         self.venue.observe(segs.start, segs.box, segs.observed, members[multi])
         tri = tri if fused is None else WindowTracklets3D.concat([tri, fused])
+        tested = tri.members if self.method.regroup and D2 is not None else None
         if self.method.ghost_test:  # Eq. 4, then the floor's ghost test; a ghost's segments may go to the floor only
             if self._space_mean is None:  # (the paper's Eq. 4 first; by the mean it runs inside the ghost test's call)
                 tri = self._drop_outliers(tri)
@@ -351,6 +355,9 @@ class Tracker:
                                                       None if self._space_mean is None else (self.space, p.max_speed))
         else:
             tri = self._drop_outliers(tri)
+        if tested is not None:  # a dropped cluster's opposite pairs on to the plane (.regroup)
+            self._regrouped, self._groups, to_plane, self._floor_only = regroup(
+                tested, tri.members, D2, segs.camera, self.opposite, p.cluster_2d, to_plane, self._floor_only, self.counts)
         if self.refiner is not None:  # the plane's points: what passed the tests, and the opposite pairs
             self.refiner.observe(segs, tri, members[fallback & ((members >= 0).sum(axis=1) >= 2)])
         self.counts["clusters_triangulated"] += len(tri)
@@ -381,7 +388,9 @@ class Tracker:
         # Eq. 2's separations, the one-view continuation, Eq. 5-9, Eq. 4, one view only inside S_perf
         pl = plane_split(segs, to_plane, D2, self.rig.arrays, self.stage_planes, p, self.association == "oracle",
                          self.linker.prev_2d, self.linker.prev_seen, self.space, self._solo_space, self.counts,
-                         self.method.outliers_at_mean)
+                         self.method.outliers_at_mean, self._groups)
+        if pl is not None and len(self._regrouped):  # only a gymnast's regrouped pair is kept (.regroup)
+            pl = gymnast_only(pl, self._regrouped, self.perf_space, self.scene.target, self.counts)
         if pl is not None and self.fusion is not None:  # two-view plane tracklets fused with the plane (.fusion)
             pl = self._drop_outliers(self.fusion.refine(segs, pl))  # (Eq. 4 on the fused points too)
         return pl, floor
@@ -395,6 +404,8 @@ class Tracker:
         cur = (parts[0] if len(parts) == 1 else WindowTracklets3D.concat(parts)) if parts else \
             WindowTracklets3D.empty(start, self.width, self.n_cameras)
         solo, floor_rows = continuation_only(len(cur), tri, floor, plane, self.counts)
+        if plane is not None and len(self._regrouped):  # a regrouped pair only continues a track (.regroup)
+            solo[len(cur) - len(plane):] |= np.isin(plane.members, self._regrouped).any(axis=1)
         cur = self.linker.step(cur, segs.track2d, solo, floor_rows)
         self.records.add(cur, segs, self._window_index)
         self._window_index += 1

@@ -3,7 +3,7 @@
 Paper: no method of its own; these are the hot loops of Section III-A (:mod:`.single_view`,
 :mod:`.windows`), III-B (:mod:`.clustering`: Eq. 2, Algorithm 1; :mod:`.reconstruct`: Eq. 3-4;
 :mod:`.linking`: Eq. 10-12, cascade+'s link by 2D tracks), III-C (:mod:`.plane`: Eq. 5-9; :mod:`.floor`: ``cascade+``'s floor, Eq. 5-9 on z = 0; :mod:`.fusion`: ``cascade+``'s ray-plane fusion;
-:mod:`.exclusion`: ``cascade+``'s duplicate suppression, :mod:`.records`: its superseded estimates) and the venue check (:mod:`.drift`: the residuals of a knocked or late camera) and III-D (:mod:`.target`: Eq. 14),
+:mod:`.exclusion`: ``cascade+``'s duplicate suppression, :mod:`.regroup`: its dropped clusters' opposite pairs, :mod:`.records`: its superseded estimates) and the venue check (:mod:`.drift`: the residuals of a knocked or late camera) and III-D (:mod:`.target`: Eq. 14),
 written as plain loops over the scalar primitives of :mod:`gymtrack.geometry.primitives`.
 The arrays of one frame or window are small (tens of boxes, tracklets of 10 frames), so
 numpy's per-call overhead dominated the vectorised versions; each kernel replaces a dozen or
@@ -54,7 +54,7 @@ def drop_stale_cache() -> int:
 drop_stale_cache()
 
 from . import (clustering, drift, exclusion, floor, fusion, linking, plane, reconstruct, records,  # noqa: E402
-               single_view, target, windows)  # (after the check)
+               regroup, single_view, target, windows)  # (after the check)
 
 _WARM = False
 
@@ -66,7 +66,7 @@ def warm_up() -> None:
     if _WARM:
         return
     for module in (single_view, windows, clustering, reconstruct, linking, exclusion, records, plane, floor, fusion, target,
-                   drift, primitives):
+                   drift, regroup, primitives):
         module.warm_up()
     # a full collection now, not during the first tracking call: after a first compile Python's
     # collector has the compiler's many objects to walk (a demo's first mode ran at 1/3 speed)
