@@ -36,11 +36,17 @@ from gymtrack.cli import app
 console = Console()
 
 
-def _methods(text: str) -> list[str]:
+DEFAULT_METHODS = "cascade,cascade+,triangulation,plane,mvpt,oracle"
+
+
+def _methods(given: Optional[list[str]]) -> list[str]:
+    """The methods of ``--methods``, comma-separated, repeated or both (``-m cascade+ -m oracle``:
+    every one counts); the default set when not given."""
     from gymtrack.errors import InputError
     from gymtrack.eval.aggregate import METHODS
 
-    out = [m.strip() for m in text.replace(" ", ",").split(",") if m.strip()]
+    text = ",".join(given) if given else DEFAULT_METHODS
+    out = list(dict.fromkeys(m.strip() for m in text.replace(" ", ",").split(",") if m.strip()))
     bad = [m for m in out if m not in METHODS]
     if bad or not out:
         raise InputError(f"unknown method {bad[0] if bad else text!r}; choose from {', '.join(METHODS)}", field="--methods")
@@ -141,8 +147,9 @@ def benchmark(
     suite: Optional[Path] = typer.Option(None, "--suite", "-s", help="suite folder (simulate-suite output); absent: simulate the default suite into OUT/suite"),
     jobs: int = typer.Option(0, "--jobs", "-j", help="parallel routines: LocalCluster worker processes (0: one per CPU; 1: in this process)"),
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="run the routines on a running Dask scheduler, e.g. tcp://host:8786 (as gymtrack batch)"),
-    methods: str = typer.Option("cascade,cascade+,triangulation,plane,mvpt,oracle", "--methods", "-m",
-                                help="comma-separated: cascade, cascade+, triangulation, plane, mvpt, oracle"),
+    methods: Optional[list[str]] = typer.Option(None, "--methods", "-m",
+                                                help="comma-separated or repeated: cascade, cascade+, triangulation, plane, "
+                                                     "mvpt, oracle (default: all six)"),
     # 4 = gymtrack.eval.benchmark.DEFAULT_PER_APPARATUS (kept literal: importing gymtrack.eval here slows every command)
     per_apparatus: int = typer.Option(4, "--per-apparatus", help="routines per apparatus (each seen with n_cam = 2, 3, 4) when simulating the default suite; 20 = the paper's 140 routines"),
     seconds: float = typer.Option(25.0, "--seconds", help="routine length in seconds when simulating the default suite (0: the simulator's defaults, 60 s and 20 s for vault)"),
