@@ -15,7 +15,7 @@ from gymtrack.geometry import Camera, Plane, Rig, intersect_rays_plane
 from gymtrack.geometry.camera import look_at
 from gymtrack.pose import LiftOptions, lift_track
 from gymtrack.pose.dlt import fuse_rays_plane, rays
-from gymtrack.pose.lift import measure_noise
+from gymtrack.pose.snapshots import measure_noise
 from gymtrack.pose.smooth import smooth_track
 from gymtrack.poses import HOW_FUSED, HOW_NONE, HOW_PLANE, HOW_TRIANGULATED
 from gymtrack.simulate.body import BodyModel, gait_angles

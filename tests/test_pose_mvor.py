@@ -97,3 +97,21 @@ def test_errors_by_hand():
 def test_section_without_data_says_why(tmp_path):
     d = run_mvor_pose(tmp_path)
     assert d["available"] is False and "MVOR" in mvor_markdown(d)
+
+
+@needs_data
+def test_snapshot_rules_lower_the_error_and_say_what_they_declined(mv):
+    frames = np.arange(150)
+    on = lift_mvor(mv, "openpose", frames=frames, methods=("robust",))
+    off = lift_mvor(mv, "openpose", frames=frames, methods=("robust",), decline=False, bones=False)
+    e_on, e_off = mvor_errors(on["robust"], on["gt"]), mvor_errors(off["robust"], off["gt"])
+    assert e_on["mpjpe_mm"] < e_off["mpjpe_mm"]
+    # every joint robust no longer estimates is one it declined, and counted
+    lost = np.isfinite(off["robust"]).all(-1) & ~np.isfinite(on["robust"]).all(-1)
+    assert 0 < lost.sum() <= on["joints_declined"] and off["joints_declined"] == 0
+    # the pooled lengths (no ground truth) are an adult's: forearm and upper arm 15-40 cm
+    L = dict(zip(map(tuple, np.asarray(MVOR_SKELETON.bones).reshape(-1, 2)), on["bone_lengths_m"]))
+    j = {n: i for i, n in enumerate(MVOR_SKELETON.joints)}
+    for a, b in (("left_elbow", "left_wrist"), ("right_shoulder", "right_elbow")):
+        key = (j[a], j[b]) if (j[a], j[b]) in L else (j[b], j[a])
+        assert 0.15 < L[key] < 0.40

@@ -19,9 +19,14 @@ on a room (:func:`body_plane`): an operating room has no apparatus plane, so a j
 alone sees is anchored on the vertical plane through the person's other joints facing that view
 (vertical by the room frame's up, ``firstCamToRoomRef``), and a person seen by one view is
 centred where its joints' rays meet their usual heights in the room (medians over the persons
-2+ views placed; no ground truth). ``dlt`` keeps the protocol's keypoints as they are. One snapshot is too little for ``robust``
+2+ views placed; no ground truth); the depth of such a joint is pulled to its bone's length from
+its placed neighbour, the lengths pooled over every person's 2-view joints
+(:func:`gymtrack.pose.snapshots.pooled_bone_lengths`; no ground truth); a person whose views agree
+on no body (the README's linking gives a view another person's detection where that view missed
+the person) is declined, its joints counted as not estimated, never guessed
+(``LiftOptions.decline_disagreeing``). ``dlt`` keeps the protocol's keypoints as they are. One snapshot is too little for ``robust``
 to measure the 2D noise its gate scales with, so that level is measured once over every person
-(:func:`gymtrack.pose.lift.measure_noise`, from the detections' own residuals; MVOR's real
+(:func:`gymtrack.pose.snapshots.measure_noise`, from the detections' own residuals; MVOR's real
 calibration reprojects its own ground truth with a ~6.5 px median error at 640x480, far above a
 simulated rig's). Errors in mm over the joints with 3D
 ground truth: MPJPE over the joints each method estimated, the share estimated, the median, the
@@ -31,6 +36,7 @@ when one method declines more joints).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Callable
 
@@ -44,16 +50,18 @@ README_BASELINE = {"mpjpe_mm": 345.0, "median_mm": 194.0, "estimated": 0.759, "o
 
 def lift_mvor(mv, detector: str = "openpose", frames: np.ndarray | None = None,
               methods: tuple[str, ...] = ("dlt", "robust"), one_body: bool = True,
-              plane_anchor: bool = True) -> dict:
+              plane_anchor: bool = True, decline: bool = True, bones: bool = True) -> dict:
     """Lift every MVOR person with 3D ground truth from a detector's linked keypoints.
 
     mv: :class:`gymtrack.formats.mvor.MVOR`; frames: frame indices to use (default all).
     Returns ``{"gt": (K, J, 3) metres, method: (K, J, 3) estimates, "views": (K,) views with a
     detection, "same_body": views robust left to another person, "plane_persons": persons whose
-    lone joints robust anchored}`` over the K persons. one_body, plane_anchor: robust's rules
-    (module doc), for the ablation.
+    lone joints robust anchored, "joints_declined": joints robust declined (views that agree on no
+    body), "bone_lengths_m": the pooled lengths}`` over the K persons. one_body, plane_anchor,
+    decline, bones: robust's rules (module doc), for the ablation.
     """
-    from ..pose.lift import LiftOptions, lift_track, measure_noise
+    from ..pose.lift import LiftOptions, lift_track
+    from ..pose.snapshots import measure_noise, pooled_bone_lengths
 
     dk = mv.detected_keypoints(detector)  # (F, V, P, J, 3)
     F, P = mv.person_id.shape
@@ -72,12 +80,21 @@ def lift_mvor(mv, detector: str = "openpose", frames: np.ndarray | None = None,
     kp_robust = kp.copy()  # robust's own rules; dlt keeps the protocol's keypoints as they are
     out["same_body"] = one_body_one_person(mv.rig, mv.skeleton, kp_robust, f_idx) if one_body else 0
     up, up0 = mv.up, mv.room[2, 3]
-    out["plane_persons"] = 0
+    out["plane_persons"], out["joints_declined"], out["bone_lengths_m"] = 0, 0, None
     for m in methods:
         src = kp_robust if m == "robust" else kp
         est = np.full((f_idx.size, J, 3), np.nan)
+        how, n_views = np.zeros((f_idx.size, J), np.int8), np.zeros((f_idx.size, J), np.int64)
+        mopt = replace(opt, decline_disagreeing=decline) if m == "robust" else opt
         for k in range(f_idx.size):
-            est[k] = lift_track(mv.rig, src[k][None], mv.skeleton, method=m, options=opt).xyz[0]
+            lifted = lift_track(mv.rig, src[k][None], mv.skeleton, method=m, options=mopt)
+            est[k], how[k], n_views[k] = lifted.xyz[0], lifted.how[0], lifted.n_views[0]
+            if m == "robust":
+                out["joints_declined"] += lifted.counts["joints_declined"]
+        if m == "robust" and bones and len(est):
+            # a snapshot has no frames to measure its own bones on: pooled over the persons (no ground truth)
+            out["bone_lengths_m"] = pooled_bone_lengths(est, how, n_views, mv.skeleton)
+            mopt = replace(mopt, bone_lengths_m=out["bone_lengths_m"])
         if m == "robust" and plane_anchor and np.isfinite(up).all():
             # each joint's height in the room, measured on the persons 2+ views placed (no ground truth)
             height = np.nanmedian(est @ up + up0, axis=0)
@@ -85,7 +102,7 @@ def lift_mvor(mv, detector: str = "openpose", frames: np.ndarray | None = None,
                 plane = body_plane(mv.rig, src[k], est[k], up, up0, height)
                 if plane is not None:
                     est[k] = lift_track(mv.rig, src[k][None], mv.skeleton, method=m, centre=plane[0][None],
-                                        plane_normal=plane[1], options=opt).xyz[0]
+                                        plane_normal=plane[1], options=mopt).xyz[0]
                     out["plane_persons"] += 1
         out[m] = est
     return out
@@ -176,7 +193,8 @@ def run_mvor_pose(folder: str | Path | None = None, detector: str = "openpose", 
     r = lift_mvor(mv, detector, frames)
     common = np.isfinite(r["dlt"]).all(-1) & np.isfinite(r["robust"]).all(-1)
     return {"available": True, "note": "", "detector": detector, "persons": int(len(r["gt"])), "noise_frac": r["noise_frac"],
-            "same_body": r["same_body"], "plane_persons": r["plane_persons"],
+            "same_body": r["same_body"], "plane_persons": r["plane_persons"], "joints_declined": r["joints_declined"],
+            "bone_lengths_m": r["bone_lengths_m"],
             "persons_2_views": int((r["views"] >= 2).sum()),
             "dlt": mvor_errors(r["dlt"], r["gt"], common), "robust": mvor_errors(r["robust"], r["gt"], common),
             "readme_baseline": README_BASELINE}
@@ -208,7 +226,9 @@ def mvor_markdown(d: dict) -> str:
         "Detections linked to the nearest annotated person without a distance limit (the README's protocol); each "
         f"person lifted on its own; robust leaves {d.get('same_body', 0)} views of a body another person of the frame "
         f"fits better and anchors lone joints on a vertical plane through the person ({d.get('plane_persons', 0)} "
-        "persons); robust's gate scales with the 2D noise level measured once over "
+        "persons), their depth pulled to the bone lengths pooled over the persons' 2-view joints; robust declines the "
+        f"{d.get('joints_declined', 0)} joints of persons whose views agree on no body (no estimate, not a guess); "
+        "robust's gate scales with the 2D noise level measured once over "
         f"every person's own residuals (no ground truth): {100 * d.get('noise_frac', float('nan')):.1f}% of the box. MPJPE over the joints each method estimated; the last column "
         f"over the {d['robust'].get('joints_common', 0)} joints both estimated.", "",
         markdown_table(["lifting", "MPJPE (mm)", "median (mm)", "joints estimated", "> 50 cm", "MPJPE, common joints (mm)"], rows),

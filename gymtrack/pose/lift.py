@@ -45,6 +45,7 @@ from .consensus import settle_ties, view_consensus
 from .dlt import gauss_newton, residuals, weighted_dlt
 from .limb_check import LimbCheck, check_arms
 from .smooth import smooth_track
+from .snapshots import given_lengths
 from .temporal import TemporalPrior, apply_prior
 
 METHODS = ("dlt", "robust")
@@ -64,7 +65,7 @@ class LiftOptions:
         the calibration's own error). Lower rejects more noise and more good views; a fixed
         share of the box (the floor) rejected a third of the good views of hard poses.
     noise_frac: ``sigma`` of every joint given instead of measured (0 = measure on the track):
-        for tracks too short to measure it on (single snapshots), from :func:`measure_noise`
+        for tracks too short to measure it on (single snapshots), from :func:`.snapshots.measure_noise`
         over many of them.
     flip_ratio: a view is read left/right-swapped when that brings its lateral joints' error
         below this share of the unswapped error. Lower = only clear swaps (a 3/4 view of a
@@ -93,6 +94,9 @@ class LiftOptions:
         prior, not a measurement).
     fallback_score_factor: score multiplier of a frame where no two views agreed: it keeps the
         confidence-weighted all-view solution (never fewer joints than ``dlt``), flagged.
+    decline_disagreeing, bone_lengths_m: for snapshots (:mod:`.snapshots`): such a frame gives no
+        joint (``joints_declined``); bone lengths (per ``skeleton.bones``, NaN = unknown) where the
+        track is too short to measure its own.
     """
 
     min_score: float = 0.2
@@ -116,13 +120,15 @@ class LiftOptions:
     smooth_outlier_m: float = 0.15
     plane_score_factor: float = 0.5
     fallback_score_factor: float = 0.3
+    decline_disagreeing: bool = False
+    bone_lengths_m: tuple[float, ...] | None = None
     arms: LimbCheck | None = None  #: arms against the track's bones and motion (:mod:`.limb_check`); None = off
     temporal: TemporalPrior | None = TemporalPrior()  #: doubtful joints by the track's neighbouring frames (:mod:`.temporal`)
 
     def __post_init__(self) -> None:
         for f in fields(self):
             val = getattr(self, f.name)
-            if f.name in ("arms", "temporal"):
+            if f.name in ("arms", "temporal", "decline_disagreeing", "bone_lengths_m"):
                 continue
             if isinstance(val, bool) or not isinstance(val, (int, float)) or not np.isfinite(val) or val < 0:
                 raise InputError(f"must be a finite number >= 0, got {val!r}", source="LiftOptions", field=f.name)
@@ -304,18 +310,6 @@ def _all_views(P, u, v, ok, sc, box, opt):
     return X, w, sigma
 
 
-def measure_noise(rig: Rig, keypoints: np.ndarray, skeleton: Skeleton, options: LiftOptions = LiftOptions()) -> float:
-    """The 2D noise level (std per coordinate over the box, pooled over joints) of keypoints
-    (T, C, J, 3) raw pixels: :func:`noise_level` of their all-view solution. For
-    ``LiftOptions.noise_frac`` when single snapshots are lifted one by one (T rows = snapshots,
-    e.g. persons); it uses no ground truth."""
-    kp, _, _ = _check(rig, keypoints, skeleton, "robust", None, None, options)
-    u, v, ok, sc = _prepare(rig, kp, options)
-    box = _box_size(u, v, ok)
-    X, w, _ = _all_views(rig.projections, u, v, ok, sc, box, options)
-    return float(np.median(noise_level(rig.projections, X, u, v, w, box, min_samples=np.iinfo(np.int64).max)))
-
-
 def _robust(rig, P, u, v, ok, sc, skeleton, centre, normal, opt) -> Lifted:
     C, J, T = u.shape
     flip = np.asarray(skeleton.flip, dtype=np.int64)
@@ -328,11 +322,13 @@ def _robust(rig, P, u, v, ok, sc, skeleton, centre, normal, opt) -> Lifted:
     # no two views agreed (e.g. two views of different bodies): keep them all, flagged, rather
     # than give nothing -- robust never estimates fewer joints than dlt because consensus failed
     fallback = ((cons.keep & present).sum(axis=0) < 2) & (present.sum(axis=0) >= 2)
-    keep = np.where(fallback, present, cons.keep)
+    declined = fallback & opt.decline_disagreeing
+    keep = np.where(fallback, present & ~declined, cons.keep)
     sw = np.where(fallback[None, None, :], False, cons.reading(legs))  # (C, J, T)
     swap = sw.any(axis=1)
     counts = {"views_dropped": int((present & ~keep).sum()), "views_swapped": int((sw[:, ~legs].any(axis=1) & swap).sum()),
-              "views_legs_swapped": int((~sw[:, ~legs].any(axis=1) & swap).sum()), "frames_fallback": int(fallback.sum())}
+              "views_legs_swapped": int((~sw[:, ~legs].any(axis=1) & swap).sum()), "frames_fallback": int(fallback.sum()),
+              "joints_declined": int(ok[:, :, declined].any(axis=0).sum())}
     u, v, ok, sc = (np.where(sw, a[:, flip], a) for a in (u, v, ok, sc))
     use = ok & keep[:, None, :]
     w = np.where(use, sc / box[:, None, :], 0.0).reshape(C, -1)
@@ -352,6 +348,7 @@ def _robust(rig, P, u, v, ok, sc, skeleton, centre, normal, opt) -> Lifted:
     counts["joint_views_dropped"] = int(drop.sum())
     if centre is None:  # no plane for the joints the consensus left with one view: all views, flagged
         lost = ((w > 0).sum(axis=0) < 2) & ((w_all > 0).sum(axis=0) >= 2) & ~np.repeat(swap.any(axis=0), J)
+        lost &= ~np.tile(declined, J)
         X[:, lost], w[:, lost] = X_all[:, lost], w_all[:, lost]
         counts["joints_fallback"] = int(lost.sum())
     use = (w > 0).reshape(C, J, T)
@@ -421,10 +418,10 @@ def _cascade(rig, X3, u, v, use, sc, box, centre, normal, skeleton, opt):
     j, t = sel // T, sel % T
     origin[t, j], direction[t, j] = o_main.T, d_main.T
     strong = (how == HOW_TRIANGULATED) & ~weak
-    lengths = bone_lengths(X3, strong.T, np.asarray(skeleton.bones, np.int64).reshape(-1, 2), opt.bone_min_frames)
-    X3, pulled = pull_to_bones(X3, strong.T, (weak & (how != HOW_NONE)).T, origin, direction,
-                               np.asarray(skeleton.bones, np.int64).reshape(-1, 2), lengths, opt.bone_weight,
-                               opt.bone_iterations)
+    bones = np.asarray(skeleton.bones, np.int64).reshape(-1, 2)
+    lengths = np.where(np.isfinite(L := bone_lengths(X3, strong.T, bones, opt.bone_min_frames)), L, given_lengths(opt, skeleton))
+    X3, pulled = pull_to_bones(X3, strong.T, (weak & (how != HOW_NONE)).T, origin, direction, bones, lengths,
+                               opt.bone_weight, opt.bone_iterations)
     counts["joints_bone_pulled"] = pulled
     return X3, how.T.copy(), weak.T, counts
 
