@@ -83,7 +83,9 @@ def test_pose2sim_trial_info_track_pose(project, tmp_path):
     assert {"head", "neck", "left_big_toe"} <= set(p3.skeleton.joints)  # BODY_25B's own joints, named right
     k = int(np.flatnonzero(sim.person_id == sim.target_id)[0])
     e = target_pose_error(p3.frame, p3.xyz, p3.skeleton.joints, sim.frames, sim.keypoints[k], COCO17.joints, sim.frames)
-    assert e.pose_share > 0.75
+    # the gymnast is identified at frame 82 of 300 (its track is born as it mounts the beam); before
+    # the regroup ingredient a phantom held the target over frames 71-106 and counted as pose frames
+    assert e.pose_share > 0.7
     # the joints named right lie where the truth's do: the median frame's error (a misread order is off in
     # every frame; a frame whose target is another person -- an identification error, not a reading one --
     # must not decide this)

@@ -347,7 +347,7 @@ def _robust(rig, P, u, v, ok, sc, skeleton, centre, normal, opt) -> Lifted:
         X[:, sub] = gauss_newton(P, Xs, uf[:, sub], vf[:, sub], w[:, sub], opt.refine_iterations)
     counts["joint_views_dropped"] = int(drop.sum())
     if centre is None:  # no plane for the joints the consensus left with one view: all views, flagged
-        lost = ((w > 0).sum(axis=0) < 2) & ((w_all > 0).sum(axis=0) >= 2) & ~np.repeat(swap.any(axis=0), J)
+        lost = ((w > 0).sum(axis=0) < 2) & ((w_all > 0).sum(axis=0) >= 2) & ~np.tile(swap.any(axis=0), J)  # points run joint by joint (j T + t)
         lost &= ~np.tile(declined, J)
         X[:, lost], w[:, lost] = X_all[:, lost], w_all[:, lost]
         counts["joints_fallback"] = int(lost.sum())
