@@ -9,9 +9,12 @@ it -- an angle (radians) per camera, pair, point and frame (a *key*: camera x pa
 or late camera moves the keys it is involved in (its own, and the others' through the pairs it is
 in) and no other: the camera whose involved keys moved, against the keys not involving it, is named.
 
-- A knocked camera (turned about its centre) moves all its points by the same angle: its median
-  residual over the last second steps away from its median of the five seconds before, clearly
-  more than the other cameras', and a rotation fitted to the points explains the step. Then
+- A knocked camera (turned about its centre) moves all its points by the same small rotation:
+  each key's median residual over the last second shifts from its median of the five seconds
+  before, by what that rotation predicts -- its own keys by the turn itself, the keys of the
+  pairs it is in by how their triangulated point moves -- and the keys not involving it stay.
+  The rotation of each camera alone is fitted to all keys' shifts (in their scatter); the camera
+  whose turn explains them clearly best is named. Then
   :class:`DriftMonitor` reports the camera, the frame it started, the size in degrees, and (``recalibrate``) re-estimates the camera's rotation from the points
   the other views triangulate (a rotation-only fit of the rays, Kabsch / Wahba's problem) and
   maps that camera's later boxes back into the calibrated view (``correct``), and the boxes the
