@@ -14,9 +14,10 @@ in) and no other: the camera whose involved keys moved, against the keys not inv
   before, by what that rotation predicts -- its own keys by the turn itself, the keys of the
   pairs it is in by how their triangulated point moves -- and the keys not involving it stay.
   The rotation of each camera alone is fitted to all keys' shifts (in their scatter); the camera
-  whose turn explains them clearly best is named. Then
-  :class:`DriftMonitor` reports the camera, the frame it started, the size in degrees, and (``recalibrate``) re-estimates the camera's rotation from the points
-  the other views triangulate (a rotation-only fit of the rays, Kabsch / Wahba's problem) and
+  whose turn explains them clearly best is named. Once a sample wholly after the move is in,
+  :class:`DriftMonitor` reports the camera, the frame it started and the size in degrees, and
+  (``recalibrate``) takes the turn fitted over that sample as the camera's rotation (the rotation
+  fitted to its own points, Kabsch / Wahba's problem, is reported beside it as a cross-check) and
   maps that camera's later boxes back into the calibrated view (``correct``), and the boxes the
   tracker reports back out (``uncorrect``): a rotation about the centre is the image homography
   ``K R K^-1``.
@@ -59,6 +60,7 @@ CAP = 16.0  # one key's most share of the evidence (scatters squared): one key c
 #: 0.5 degree knock passes in 69 of 98, a 1 degree one in 95 of 98
 EVIDENCE, MARGIN = 50.0, 10.0
 EVIDENCE_HELD, MARGIN_HELD, OWN_HELD = 25.0, 5.0, 2.0
+FULL_SAMPLES = 1  # samples wholly after a move that its turn is fitted to
 MAX_RESIDUAL = 0.05  # radians (3 deg): a larger residual is a wrong association, not drift
 MIN_POINTS = 8  # points of a camera x pair in a sample for its median to count
 
@@ -89,6 +91,16 @@ def _small_turn(axis: int, eps: float) -> np.ndarray:
     e = np.zeros(3)
     e[axis] = eps
     return np.eye(3) + np.array([[0, -e[2], e[1]], [e[2], 0, -e[0]], [-e[1], e[0], 0]])
+
+
+def _rotation(w: np.ndarray) -> np.ndarray:
+    """(3,) rotation vector -> (3, 3) rotation (Rodrigues)."""
+    t = float(np.linalg.norm(w))
+    if t < 1e-12:
+        return np.eye(3)
+    k = w / t
+    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+    return np.eye(3) + np.sin(t) * K + (1 - np.cos(t)) * K @ K
 
 
 def _degrees(R: np.ndarray) -> float:
@@ -138,6 +150,7 @@ class DriftMonitor:
         self.turns: dict[int, tuple[int, np.ndarray]] = {}  # camera -> (from frame, rotation now vs calibrated)
         self.first: int | None = None
         self._held: int | None = None  # the camera named at the last sample by the held rule
+        self._named: tuple | None = None  # (camera, its first moved sample's frame, start): to be reported
 
     # ------------------------------------------------------------ per window
     def observe(self, start: int, box: np.ndarray, observed: np.ndarray, members: np.ndarray) -> None:
@@ -242,6 +255,8 @@ class DriftMonitor:
         """A knock: the camera whose turn alone explains how the keys moved -- its own residuals,
         and the others' through the pairs it is in, none else -- clearly better than any other
         camera's, at one sample by a wide margin or at two in a row."""
+        if self._named is not None:
+            return self._confirm()
         shift, sigma, base = self._steps()
         ready = np.isfinite(sigma)
         held, self._held = self._held, None
@@ -268,19 +283,42 @@ class DriftMonitor:
         first = self.n_base  # the first sample of the run of moved samples reaching into the last second
         while first > 0 and moved[first - 1]:
             first -= 1
-        started = int(self.frames[first]) - self.step + 1
-        frame = self.last_frame
-        # the turn: the rotation fitted to the moved samples' points against the one fitted before
-        # (which holds the calibration's own small error)
-        pts = [None if q is None or not np.isfinite(self.meds[k, j, 0]) else (q[1][q[0][k]:q[0][k + 1]], q[2][q[0][k]:q[0][k + 1]])
-               for j, q in enumerate(self.samples)]
-        before, after = [q for q in pts[:first] if q is not None], [q for q in pts[first:] if q is not None]
+        # named: reported once FULL_SAMPLES samples after the first moved one (which may hold frames
+        # from before the move) have come, the turn fitted to those
+        self._named = (c, int(self.frames[first]), int(self.frames[first]) - self.step + 1)
+        self._confirm()
+
+    def _confirm(self) -> None:
+        """The named camera's event, once FULL_SAMPLES samples wholly after its first moved one are
+        in: the turn fitted to the keys' shifts over those samples against the samples before the
+        move (:meth:`_fit`) is the camera's re-estimated rotation; the rotation fitted to its own
+        points (Kabsch) is reported beside it."""
+        c, first_frame, started = self._named
+        at = np.flatnonzero(self.frames == first_frame)
+        if not len(at) or at[0] < 1:  # (the move's sample left the history: named again if it holds)
+            self._named = None
+            return
+        first = int(at[0])
+        if len(self.frames) - 1 - first < FULL_SAMPLES:
+            return
+        self._named = None
+        own = np.flatnonzero(self.key_camera == c)
+        pts = [None if q is None else (np.concatenate([q[1][q[0][k]:q[0][k + 1]] for k in own]),
+                                       np.concatenate([q[2][q[0][k]:q[0][k + 1]] for k in own])) for q in self.samples]
+        before = [q for q in pts[:first] if q is not None and len(q[0])]
+        after = [q for q in pts[first + 1:] if q is not None and len(q[0])]
         if not before or not after:
             return
-        R = self._refit(c, after) @ self._refit(c, before).T
+        shift, sigma, _ = kernels.steps(np.ascontiguousarray(np.concatenate([self.meds[:, :first], self.meds[:, first + 1:]], axis=1)),
+                                        first, SIGMA_MIN)
+        w = self._fit(shift, sigma, np.flatnonzero(np.isfinite(sigma)))[0][c][1]
+        if w is None:
+            return
+        R, kabsch = _rotation(w), self._refit(c, after) @ self._refit(c, before).T
+        frame = self.last_frame
         event = {"camera": self.rig.names[c], "start_frame": started, "detected_frame": int(frame),
                  "start_seconds": round((started - self.first) / self.fps, 2),
-                 "degrees": round(float(np.degrees(np.linalg.norm(w))), 2), "turn_degrees": round(_degrees(R), 2)}
+                 "degrees": round(_degrees(R), 2), "turn_degrees": round(_degrees(kabsch), 2)}
         if self.recalibrate:
             prev = self.turns.get(c, (0, np.eye(3)))[1]
             self.turns[c] = (int(frame) + 1, R @ prev)
@@ -289,7 +327,7 @@ class DriftMonitor:
         warnings.warn(f"camera {event['camera']} moved by about {event['degrees']} deg from frame {started} "
                       f"({event['start_seconds']} s): knocked? " + (f"its rotation was re-estimated "
                       f"({event['rotation_degrees']} deg) and applied from frame {frame + 1}" if self.recalibrate
-                      else "recalibrate it"), GymtrackWarning, stacklevel=2)
+                      else "recalibrate it"), GymtrackWarning, stacklevel=3)
         self.meds[:] = np.nan  # every camera's residuals moved with it: a new baseline after the move
         self.samples = [None] * len(self.samples)
 
