@@ -103,6 +103,9 @@ def _rotation(w: np.ndarray) -> np.ndarray:
     return np.eye(3) + np.sin(t) * K + (1 - np.cos(t)) * K @ K
 
 
+_SMALL_TURNS = np.stack([_small_turn(i, 1e-4) for i in range(3)])  # (3, 3, 3) the Jacobians' steps
+
+
 def _degrees(R: np.ndarray) -> float:
     return float(np.degrees(np.arccos(np.clip((np.trace(R) - 1) / 2, -1, 1))))
 
@@ -151,6 +154,7 @@ class DriftMonitor:
         self.first: int | None = None
         self._held: int | None = None  # the camera named at the last sample by the held rule
         self._named: tuple | None = None  # (camera, its first moved sample's frame, start): to be reported
+        self._own = [np.flatnonzero(self.key_camera == c) for c in range(C)]  # each camera's own keys
 
     # ------------------------------------------------------------ per window
     def observe(self, start: int, box: np.ndarray, observed: np.ndarray, members: np.ndarray) -> None:
@@ -203,21 +207,19 @@ class DriftMonitor:
         a, b = self.pairs[0][p], self.pairs[1][p]
         ca, cb = self.centres[a], self.centres[b]
         R, eps = self.rig[c].R, 1e-4
-
-        def seen_from_j(da, db):
-            w = ca - cb
-            aa, bb, cc, d, e = da @ da, da @ db, db @ db, da @ w, db @ w
-            den = aa * cc - bb * bb
-            P = (ca + (bb * e - cc * d) / den * da + cb + (aa * e - bb * d) / den * db) / 2
-            q = self.Pn[j] @ np.r_[P, 1.0]
-            return q[:2] / q[2]
-
-        da, db = X - ca, X - cb
-        at = seen_from_j(da, db)
-        J = np.empty((2, 3))
-        for i in range(3):
-            turn = R.T @ _small_turn(i, eps) @ R  # the camera's world rays turned
-            J[:, i] = -(seen_from_j(turn @ da, db) if c == a else seen_from_j(da, turn @ db)) + at
+        # the camera's ray through X as it is and turned by eps about each of its axes (world), the
+        # other's ray as it is; their midpoints (Eq. 3's two-view case) seen from the judged camera
+        d = np.stack([X - (ca if c == a else cb)] * 4)
+        d[1:] = np.einsum("nij,j->ni", R.T @ _SMALL_TURNS @ R, d[0])
+        da, db = (d, np.broadcast_to(X - cb, (4, 3))) if c == a else (np.broadcast_to(X - ca, (4, 3)), d)
+        w = ca - cb
+        aa, bb, cc = (da * da).sum(1), (da * db).sum(1), (db * db).sum(1)
+        dw, ew = da @ w, db @ w
+        den = aa * cc - bb * bb
+        P = (ca + ((bb * ew - cc * dw) / den)[:, None] * da + cb + ((aa * ew - bb * dw) / den)[:, None] * db) / 2
+        q = P @ self.Pn[j, :, :3].T + self.Pn[j, :, 3]
+        seen_j = q[:, :2] / q[:, 2:]
+        J = -(seen_j[1:] - seen_j[0]).T
         return J / eps
 
     def _fit(self, shift: np.ndarray, sigma: np.ndarray, keys: np.ndarray) -> list:
@@ -260,8 +262,13 @@ class DriftMonitor:
         shift, sigma, base = self._steps()
         ready = np.isfinite(sigma)
         held, self._held = self._held, None
-        if not (ready & (np.linalg.norm(shift, axis=1) > GATE * sigma)).any():
-            return  # (the usual sample: nothing moved)
+        z2 = np.where(ready, (shift ** 2).sum(axis=1) / sigma ** 2, 0.0)
+        chi0 = np.minimum(CAP, z2).sum()
+        if not (z2 > GATE ** 2).any() or chi0 < EVIDENCE_HELD:
+            return  # (the usual sample: nothing moved, or too little for any camera's turn to explain)
+        own_moved = [(z2[own[ready[own]]] >= OWN_HELD ** 2).all() for own in self._own if ready[own].any()]
+        if chi0 < EVIDENCE and not any(own_moved):
+            return  # (neither rule can pass: the fit would be wasted)
         fits, chi0 = self._fit(shift, sigma, np.flatnonzero(ready))
         misfit = np.array([f[0] for f in fits])
         c = int(np.argmin(misfit))
