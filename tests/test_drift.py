@@ -37,6 +37,45 @@ def test_fit_rotation_matches_scipy_align_vectors():
     assert np.allclose(fit_rotation(a, b), want, atol=1e-9)
 
 
+def test_turn_jacobian_predicts_the_residuals_of_a_turned_camera(sim):
+    """How each key's residual moves when a camera turns (its own key, and the keys of the pairs
+    it is in) against the compiled residuals of boxes moved by the turn's homography K Q K^-1."""
+    from gymtrack.geometry.views import opposite_pairs
+    from gymtrack.tracking import drift
+    from gymtrack.tracking._kernels import drift as kernels
+
+    rig = sim.rig
+    mon = drift.DriftMonitor(rig, 30.0, 5, opposite_pairs(rig, sim.scene.focus_point), recalibrate=False)
+    X = np.asarray(sim.scene.focus_point, float) + [0.3, -0.2, 0.9]
+    pix = np.stack([(c.K @ (c.R @ X + c.t))[:2] / (c.R @ X + c.t)[2] for c in rig])  # (C, 2) undistorted pixels
+    members = np.arange(len(rig), dtype=np.int64)[None]
+
+    def residuals(uv):
+        box = np.zeros((len(rig), 3, 4))
+        box[:, :, :2] = uv[:, None]
+        key, R, Xs, S, _ = kernels.residuals(box, np.ones((len(rig), 3), np.bool_), members, mon.Kinv, mon.Rt, mon.centres,
+                                             mon.Pn, *mon.pairs, 1.0, 1, 2)
+        return dict(zip(key.tolist(), R)), dict(zip(key.tolist(), zip(Xs, S)))
+
+    before, points = residuals(pix)
+    w = np.radians([0.25, -0.2, 0.1])
+    for c in range(len(rig)):
+        Q = drift._rotation(w)
+        turned = pix.copy()
+        h = rig[c].K @ Q @ np.linalg.inv(rig[c].K) @ np.r_[pix[c], 1.0]
+        turned[c] = h[:2] / h[2]
+        after, _ = residuals(turned)
+        judged = [k for k in before if mon.involves[c, k]]
+        assert len(judged) >= 3
+        for k in judged:
+            want = after[k] - before[k]
+            got = mon._jacobian(c, k, *points[k]) @ w
+            assert np.linalg.norm(got - want) <= 0.05 * np.linalg.norm(want) + 1e-6, (c, k)
+        for k in before:
+            if not mon.involves[c, k]:
+                assert np.allclose(after[k], before[k], atol=1e-12)
+
+
 def test_clean_routine_has_no_venue_warning(sim):
     res, msgs = _track(sim, sim.detections)
     assert "camera_moved" not in res.summary and "camera_out_of_sync" not in res.summary
@@ -55,6 +94,20 @@ def test_knocked_camera_named_with_start_and_size_and_reestimated(sim):
     plain, _ = _track(sim, det, recalibrate=False)
     assert plain.summary["camera_moved"][0]["camera"] == "cam3"
     assert "recalibrated_from_frame" not in plain.summary["camera_moved"][0]
+
+
+def test_half_degree_knock_named_within_five_seconds():
+    """Half a degree: the other views' points move less than the knocked camera's own, and the
+    keys its partner is in move too; the turn of the knocked camera alone explains them."""
+    beam = simulate_routine("balance_beam", n_cam=3, seed=0, seconds=20)
+    mid = 300
+    clean, _ = _track(beam, beam.detections, recalibrate=False)
+    assert "camera_moved" not in clean.summary
+    res, _ = _track(beam, knock_camera(beam.detections, beam.rig[3], 3, mid, knock_rotation(0.5, seed=3)), recalibrate=False)
+    ev = res.summary["camera_moved"]
+    assert [e["camera"] for e in ev] == ["cam3"]
+    assert mid - 30 <= ev[0]["start_frame"] <= mid + 30 and ev[0]["detected_frame"] <= mid + 5 * beam.scene.fps
+    assert 0.25 <= ev[0]["degrees"] <= 0.9
 
 
 def test_unsynchronised_camera_named_with_its_direction(sim):
@@ -103,7 +156,7 @@ def test_kernels_match_the_numpy_reference_on_a_routines_windows(sim, monkeypatc
     meds = rng.normal(scale=0.003, size=(12, 12, 2))
     meds[rng.random((12, 12)) < 0.15] = np.nan
     meds[0] = np.nan
-    for got, want in zip(kernels.steps(meds, 10, np.radians(0.3), 3.0), steps_numpy(meds, 10, np.radians(0.3), 3.0)):
+    for got, want in zip(kernels.steps(meds, 10, np.radians(0.05)), steps_numpy(meds, 10, np.radians(0.05))):
         assert np.allclose(got, want, equal_nan=True, atol=1e-15)
 
 

@@ -71,13 +71,12 @@ def residuals_numpy(box, observed, members, Kinv, Rt, centres, Pn, pa, pb, max_r
     return out, sums
 
 
-def steps_numpy(meds, nb, min_step, noise_factor):
-    """(step, thr, base) as the kernel's."""
+def steps_numpy(meds, nb, min_sigma):
+    """(shift, sigma, base) as the kernel's."""
     base_meds, recent = meds[:, :nb], meds[:, nb:]
     base = np.stack([_nanmedian(base_meds[..., 0]), _nanmedian(base_meds[..., 1])], axis=1)
     scatter = 1.4826 * _nanmedian(np.linalg.norm(base_meds - base[:, None], axis=2))
-    dev = np.linalg.norm(recent - base[:, None], axis=2)
-    ready = (np.isfinite(base_meds[..., 0]).sum(1) >= nb - 1) & np.isfinite(dev).all(axis=1)
-    step = np.where(ready, np.nan_to_num(dev).min(axis=1), 0.0)
-    thr = np.where(ready, np.maximum(min_step, noise_factor * np.nan_to_num(scatter)), np.inf)
-    return step, thr, base
+    shift = (recent - base[:, None]).mean(axis=1)
+    ready = (np.isfinite(base_meds[..., 0]).sum(1) >= nb - 1) & np.isfinite(shift).all(axis=1)
+    return (np.where(ready[:, None], np.nan_to_num(shift), 0.0), np.where(ready, np.maximum(min_sigma, np.nan_to_num(scatter)), np.inf),
+            base)
