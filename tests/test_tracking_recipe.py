@@ -283,3 +283,14 @@ def test_handover_takes_the_near_newborn_only_and_reports_its_real_id():
     h2, sel2 = TargetHandover(30, {"target_handovers": 0}), SimpleNamespace(target=-1, last_target=5, rename=lambda *a: None)
     h2.step(frame, tid, xyz, {5: 9}, sel2)
     assert sel2.target == 5
+
+
+def test_reidentify_changes_only_the_target(rings):
+    on, off = _run(rings, PLUS, "rings"), _run(rings, PLUS.without("reidentify"), "rings")
+    # the 3D tracks are the same; the target differs only where a re-identification happened
+    assert np.array_equal(on.tracks.track_id, off.tracks.track_id) and np.array_equal(on.tracks.xyz, off.tracks.xyz)
+    assert "target_reidentifications" in on.summary and "target_reidentifications" not in off.summary
+    n = on.summary["target_reidentifications"]
+    assert on.summary["target_switches"] >= n
+    assert (n == 0) == (np.array_equal(on.target.track_id, off.target.track_id)
+                        and np.array_equal(on.target.frame, off.target.frame))

@@ -28,6 +28,7 @@ INGREDIENT_COUNTS: dict[str, tuple[str, ...]] = {
     "image_motion": VIEW_COUNTS, "exclusion": ("points_suppressed",),
     "floor": ("floor_single_view",), "ghost_test": ("floor_ghosts_confirmed",), "keep_older": ("links_older",),
     "handover": ("target_handovers",), "ballistic": ("ballistic_handovers", "ballistic_points"),
+    "reidentify": ("target_reidentifications",),
 }
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
 
