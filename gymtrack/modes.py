@@ -76,6 +76,11 @@ class Method:
         views nearest each other by Eq. 2 goes on to the plane stage as a pair of its own
         (:mod:`gymtrack.tracking.regroup`): a third view's wrong segment no longer takes the
         gymnast's opposite pair down with it.
+    reidentify: the held target gives way to another track that qualified (Eq. 13) better
+        supported (more views with its detection, or triangulated rather than a plane candidate)
+        in more than Delta / 2 of the last Delta frames (:class:`gymtrack.tracking.identify.TargetSelector`):
+        a phantom of association identified before the gymnast qualified is not held while the
+        gymnast's own track qualifies; else the target is held until it ends or leaves.
     name: what results and reports call it.
     """
 
@@ -95,6 +100,7 @@ class Method:
     handover: bool = False
     ballistic: bool = False
     regroup: bool = False
+    reidentify: bool = False
     name: str = "custom"
 
     def __post_init__(self) -> None:
@@ -127,7 +133,7 @@ RECIPES: dict[str, Method] = {
     "cascade+": Method(image_motion=True, outliers_at_mean=True, floor=True, ghost_test=True, fusion=True,
                        keep_older=True, exclusion=True, best_estimates=True, solo_inside=True,
                        refine_plane=True, hold_seconds=0.2, handover=True, ballistic=True, regroup=True,
-                       name="cascade+"),
+                       reidentify=True, name="cascade+"),
 }
 MODES: tuple[str, ...] = tuple(RECIPES)
 #: the recipe a Tracker, the offline runners, batch and the command line use unless told

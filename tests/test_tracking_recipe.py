@@ -369,3 +369,12 @@ def test_gymnast_only_keeps_a_regrouped_pair_that_meets_eq13():
     left = gymnast_only(pl, np.array([0, 1, 2, 3, 4]), space, target, counts)
     # kept: the gymnast's pair, and the pair of no regrouped segment; left out: the phantom, the lone view
     assert left.members.tolist() == [[0, 1, -1, -1], [5, 6, -1, -1]] and counts["regrouped_left_out"] == 2
+def test_reidentify_changes_only_the_target(rings):
+    on, off = _run(rings, PLUS, "rings"), _run(rings, PLUS.without("reidentify"), "rings")
+    # the 3D tracks are the same; the target differs only where a re-identification happened
+    assert np.array_equal(on.tracks.track_id, off.tracks.track_id) and np.array_equal(on.tracks.xyz, off.tracks.xyz)
+    assert "target_reidentifications" in on.summary and "target_reidentifications" not in off.summary
+    n = on.summary["target_reidentifications"]
+    assert on.summary["target_switches"] >= n
+    assert (n == 0) == (np.array_equal(on.target.track_id, off.target.track_id)
+                        and np.array_equal(on.target.frame, off.target.frame))

@@ -343,3 +343,39 @@ def test_selector_rename_touches_only_that_tracks_rows_after_the_frame():
     sel.select(4, 6, frame, tid, np.zeros(5, bool), np.ones(5, bool), {})
     sel.rename(2, 7, 4)
     assert sel._tid.tolist() == [2, 3, 7, 7, 3]
+
+
+def _run_with_support(sel, frames, rows):
+    """rows: frame -> list of (track id, indicator, support). Returns the target per frame."""
+    out = []
+    for f in frames:
+        r = rows.get(f, [])
+        tid = np.array([x[0] for x in r], np.int64)
+        ind = np.array([x[1] for x in r], bool)
+        sup = np.array([x[2] for x in r], np.int64)
+        out.append(sel.select(f, f, np.full(len(tid), f, np.int64), tid, ind, np.ones(len(tid), bool), {}, sup)[0])
+    return np.array(out)
+
+
+def test_reidentify_gives_the_target_to_a_better_supported_qualifying_track():
+    # track 1: a phantom seen in one view (support 2) qualifying from frame 0; track 2: the
+    # gymnast in 3 views, triangulated (support 7), qualifying from frame 10
+    rows = {f: [(1, True, 2)] + ([(2, True, 7)] if f >= 10 else []) for f in range(40)}
+    paper = _run_with_support(TargetSelector(identify_frames=10), range(40), rows)
+    assert paper[4] == -1 and np.all(paper[5:] == 1)  # the paper's Eq. 13 holds the phantom
+    counts = {}
+    sel = TargetSelector(identify_frames=10, counts=counts)
+    target = _run_with_support(sel, range(40), rows)
+    assert np.all(target[5:15] == 1)  # frames 10..14: 5 of 10 better supported, not more than half
+    assert np.all(target[15:] == 2)  # frame 15: 6 of the last 10
+    assert sel.switches == 1 and sel.identifications == 2 and counts["target_reidentifications"] == 1
+
+
+def test_reidentify_needs_a_qualifying_track_with_more_support():
+    counts = {}
+    # track 2 as well supported as the target; track 3 better supported but never qualifying
+    # (on the floor); track 4 better supported in only 5 of every 10 frames
+    rows = {f: [(1, True, 4), (2, f >= 10, 4), (3, False, 8), (4, f >= 10, 6 if f % 2 else 3)] for f in range(40)}
+    sel = TargetSelector(identify_frames=10, counts=counts)
+    target = _run_with_support(sel, range(40), rows)
+    assert np.all(target[5:] == 1) and sel.switches == 0 and counts == {}

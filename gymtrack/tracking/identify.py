@@ -13,6 +13,13 @@
   frames the paper says are "inevitably lost" -- and a different track id counts as a switch.
   (Counting only a track's own points would re-identify a fresh track sooner, but in our
   simulations it also picks short-lived wrong tracks: more coverage, more switches.)
+  Beyond the paper (the recipe's ``reidentify``): the held target gives way to another live
+  track when, in more than Delta / 2 of the last Delta frames, that track qualified with a
+  point better observed than the target's at that frame (:func:`point_support`: more views
+  with its detection, or triangulated rather than a plane candidate; a frame without a target
+  point counts as less). A phantom of association (a plane candidate of one view or of an
+  opposite pair fused with someone else's box) identified while the gymnast stood on the floor
+  is then not held while the gymnast's own track qualifies. It counts as a switch.
 * :class:`TargetBackfill` -- beyond the paper: Eq. 13 decides from the last Delta frames, so
   when it identifies a track, the frames it looked at are the target's too. The decisions wait
   ``backfill_frames`` frames; an identification hands its track the frames of that look-back
@@ -28,7 +35,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..scene import in_box
-from .types import TargetRows
+from .types import TRIANGULATION, TargetRows
 
 
 def identify_indicator(
@@ -52,8 +59,10 @@ class TargetSelector:
     Delta x the number of tracks in view).
     """
 
-    def __init__(self, identify_frames: int = 30):
+    def __init__(self, identify_frames: int = 30, counts: dict | None = None):
         self.delta = int(identify_frames)
+        self.counts = counts  # the recipe's reidentify: its counters; None is the paper's hold
+        self.reidentify = counts is not None
         self.target = -1
         self.last_target = -1
         self.switches = 0
@@ -62,6 +71,7 @@ class TargetSelector:
         self._tid = np.zeros(0, np.int64)
         self._ind = np.zeros(0, bool)
         self._inperf = np.zeros(0, bool)
+        self._support = np.zeros(0, np.int64)
 
     def __len__(self) -> int:
         return len(self._frame)
@@ -70,16 +80,17 @@ class TargetSelector:
         """Drop the indicator rows (a pause longer than Delta: none of them can count again)."""
         self.target = -1
         self._frame, self._tid = self._frame[:0], self._tid[:0]
-        self._ind, self._inperf = self._ind[:0], self._inperf[:0]
+        self._ind, self._inperf, self._support = self._ind[:0], self._inperf[:0], self._support[:0]
 
     def rename(self, track: int, as_track: int, after: int) -> None:
         """The held rows of ``track`` after frame ``after`` count as ``as_track``'s (a handover)."""
         self._tid[(self._tid == track) & (self._frame > after)] = as_track
 
     def select(self, a: int, b: int, frame: np.ndarray, tid: np.ndarray, ind: np.ndarray, inperf: np.ndarray,
-               ended: dict[int, int]) -> np.ndarray:
-        """Final frames ``a..b`` at once: rows (n,) of their track points (frame, tid, ind, inperf).
-        Returns (b - a + 1,) the target's track id per frame (-1: none).
+               ended: dict[int, int], support: np.ndarray | None = None) -> np.ndarray:
+        """Final frames ``a..b`` at once: rows (n,) of their track points (frame, tid, ind, inperf;
+        support: how well each point is observed, see :func:`point_support`, used only with
+        ``reidentify``). Returns (b - a + 1,) the target's track id per frame (-1: none).
 
         The rule is applied frame by frame, but in runs: while the target stays, and while no
         track qualifies, every frame of the run is decided by one window count per frame
@@ -91,6 +102,9 @@ class TargetSelector:
         self._tid = np.concatenate([self._tid[keep], tid])
         self._ind = np.concatenate([self._ind[keep], ind])
         self._inperf = np.concatenate([self._inperf[keep], inperf])
+        if support is None:
+            support = np.zeros(len(frame), np.int64)
+        self._support = np.concatenate([self._support[keep], np.asarray(support, np.int64)])
         half = 0.5 * self.delta
         out = np.full(b - a + 1, -1, np.int64)
         if len(self._frame) == 0:  # nobody in the last Delta frames: no target, nothing to identify
@@ -135,10 +149,54 @@ class TargetSelector:
             lost = np.flatnonzero(n <= half)
             if len(lost):
                 stop = f + int(lost[0]) - 1
+            if self.reidentify:
+                stop = self._challenge(t, f, stop, a, half, ended, out)
+                if self.target != t:
+                    return stop + 1
             out[f - a: stop - a + 1] = t
         if stop < upto:  # lost at stop + 1: re-identification may start at that same frame
             self.target = -1
         return stop + 1
+
+    def _challenge(self, t: int, f: int, stop: int, a: int, half: float, ended: dict[int, int],
+                   out: np.ndarray) -> int:
+        """Beyond the paper (``reidentify``): the first frame of ``f..stop`` at which another live
+        track qualified, better supported than the target ``t``, in more than Delta / 2 of the
+        last Delta frames takes over (a switch). Returns the last frame ``t`` keeps (``stop``
+        when none takes over; else the frame before the take-over, whose frame is decided)."""
+        q = self._ind & (self._tid != t) & (self._frame <= stop)
+        if ended:
+            q &= ~np.isin(self._tid, np.fromiter(ended, np.int64, len(ended)))
+        rows = np.flatnonzero(q)
+        if len(rows) == 0:
+            return stop
+        base = f - self.delta + 1
+        mine = np.flatnonzero((self._tid == t) & (self._frame >= base) & (self._frame <= stop))
+        held = np.zeros(stop - base + 1, np.int64)  # the target's support per frame (0: no point)
+        np.maximum.at(held, self._frame[mine] - base, self._support[mine])
+        fr = self._frame[rows] - base
+        inside = fr >= 0
+        rows, fr = rows[inside], fr[inside]
+        rows = rows[self._support[rows] > held[fr]]
+        if len(rows) == 0:
+            return stop
+        ids, inv = np.unique(self._tid[rows], return_inverse=True)
+        mask = np.zeros(len(self._frame), bool)
+        mask[rows] = True
+        grp = np.full(len(self._frame), -1, np.int64)
+        grp[rows] = inv
+        counts = self._window_counts(mask, f, stop, grp[mask], len(ids))
+        hit = np.flatnonzero(counts.max(axis=0) > half)
+        if len(hit) == 0:
+            return stop
+        k = int(hit[0])
+        self.target = self.last_target = int(ids[np.argmax(counts[:, k])])
+        self.identifications += 1
+        self.switches += 1
+        self.counts["target_reidentifications"] = self.counts.get("target_reidentifications", 0) + 1
+        out[f - a: f + k - a] = t
+        out[f + k - a] = self.target
+        return f + k
 
     def _identify(self, f: int, upto: int, out: np.ndarray, a: int, half: float, ended: dict[int, int]) -> int:
         """Frames f.. while no target: the first frame a live track qualifies (Eq. 13) gets it.
@@ -166,6 +224,14 @@ class TargetSelector:
         self.last_target = self.target
         out[f + k - a] = self.target
         return f + k + 1
+
+
+def point_support(source: np.ndarray, wh: np.ndarray) -> np.ndarray:
+    """How well each track point is observed, for ``reidentify``: twice the number of views with a
+    detection of it, plus one when triangulated (Eq. 3) rather than a plane candidate.
+    source: (n,) source codes; wh: (n, C, 2) detection sizes (NaN: none). Returns (n,) int64."""
+    views = np.count_nonzero(~np.isnan(wh[:, :, 0]), axis=1) if wh.ndim == 3 else np.zeros(len(source), np.int64)
+    return 2 * views.astype(np.int64) + (np.asarray(source) == TRIANGULATION)
 
 
 def backfill(decision: np.ndarray, index: np.ndarray, track_id: np.ndarray, frames: int, since: int = 0,

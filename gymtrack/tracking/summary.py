@@ -27,7 +27,8 @@ COUNTS = ("windows", "segments", "segments_dropped_short", "clusters_triangulate
 INGREDIENT_COUNTS: dict[str, tuple[str, ...]] = {
     "image_motion": VIEW_COUNTS, "exclusion": ("points_suppressed",),
     "floor": ("floor_single_view",), "ghost_test": ("floor_ghosts_confirmed",), "keep_older": ("links_older",),
-    "handover": ("target_handovers",), "ballistic": ("ballistic_handovers", "ballistic_points"), "regroup": ("segments_regrouped", "regrouped_left_out"),
+    "handover": ("target_handovers",), "ballistic": ("ballistic_handovers", "ballistic_points"),
+    "regroup": ("segments_regrouped", "regrouped_left_out"), "reidentify": ("target_reidentifications",),
 }
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
 

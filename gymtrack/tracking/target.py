@@ -38,7 +38,7 @@ from ._kernels.target import BodyBox
 from ._kernels.target import buffered_boxes as buffered_boxes_kernel
 from ..detections import Detections
 from .handover import TargetHandover
-from .identify import TargetBackfill, TargetSelector, identify_indicator
+from .identify import TargetBackfill, TargetSelector, identify_indicator, point_support
 from .smoothing import TargetSmoother
 from .types import Target, TargetRows, Tracks3D
 
@@ -56,7 +56,7 @@ class TargetStage:
     and the body box's half-length.
     """
 
-    def __init__(self, rig: Rig, scene: Scene, handover: TargetHandover | None = None):
+    def __init__(self, rig: Rig, scene: Scene, handover: TargetHandover | None = None, reidentify: dict | None = None):
         p = scene.params
         self.handover = handover  # the recipe's handover (.handover): None is the paper's Eq. 13 alone
         self.flights = None if handover is None else handover.flights  # the recipe's ballistic (.ballistic)
@@ -67,7 +67,8 @@ class TargetStage:
         self.planes = [Plane.from_spec(s) for s in scene.planes]
         self.identify_frames, self.backfill_frames, self.box_scale = p.identify_frames, p.backfill_frames, p.box_scale
         self.half_depth = p.body_half_depth  # Eq. 14's body box across the plane
-        self.selector = TargetSelector(p.identify_frames)
+        # the recipe's reidentify (its counters' dict, or None: the paper's hold until it ends or leaves)
+        self.selector = TargetSelector(p.identify_frames, counts=reidentify)
         self.backfill = TargetBackfill(p.backfill_frames)
         self.smoother = TargetSmoother(p.max_gap)
         self.memory: dict = {}  # Eq. 14: the body box's last half-length
@@ -115,11 +116,12 @@ class TargetStage:
         if self.flights is not None:  # the target's track in flight: the parabola's points (.ballistic)
             rows = self.flights.extend(a, b, self.handover.flying(self.selector), rows)
         ind, inperf = identify_indicator(rows.xyz, rows.top_z, rows.bottom_z, self.perf, self.h_top, self.h_bot)
+        sup = point_support(rows.source, rows.wh) if self.selector.reidentify else None
         if self.handover is None:
-            target = self.selector.select(a, b, rows.frame, rows.track_id, ind, inperf, ended)  # (b-a+1,)
+            target = self.selector.select(a, b, rows.frame, rows.track_id, ind, inperf, ended, sup)  # (b-a+1,)
         else:  # the new track that takes up the target's as the old one for Eq. 13; the rows keep their ids
             sel, ended_sel = self.handover.step(rows.frame, rows.track_id, rows.xyz, ended, self.selector)
-            target = self.selector.select(a, b, rows.frame, sel, ind, inperf, ended_sel)
+            target = self.selector.select(a, b, rows.frame, sel, ind, inperf, ended_sel, sup)
             target = self.handover.actual(a, target, rows.frame, rows.track_id, sel)
         if self.flights is not None:  # frames still held without a point in flight (.ballistic)
             rows = self.flights.fill(a, target, rows)
