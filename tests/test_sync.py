@@ -3,6 +3,8 @@ and the fault generators it is measured with (eval.faults), against the simulato
 
 from __future__ import annotations
 
+import functools
+
 import cv2
 import numpy as np
 import pytest
@@ -140,13 +142,18 @@ def test_a_box_weighs_its_motion_across_its_epipolar_line():
     assert np.all(w[[0, -1]] == 0)  # no box LAG frames before (or after): no weight
 
 
+@functools.lru_cache(maxsize=1)
+def _sim20(apparatus, seed):
+    return simulate_routine(apparatus, n_cam=4, seed=seed, seconds=20)
+
+
 @pytest.mark.parametrize("apparatus, seed, shifts", [("still_rings", 1, {2: 3}), ("still_rings", 1, {2: -5}),
                                                      ("vault", 2, {2: 4}), ("vault", 2, {})])
 def test_offsets_exact_where_people_standing_still_leant_the_curve(apparatus, seed, shifts):
     # routines where the boxes' plain mean put camera 2 a frame off at every offset (the judges'
     # and spectators' boxes, still, outnumber the moving gymnast's); weighed by their motion
     # across the epipolar lines they are exact, and the clean routine stays at 0
-    sim = simulate_routine(apparatus, n_cam=4, seed=seed, seconds=20)
+    sim = _sim20(apparatus, seed)
     det = sim.detections
     for cam, d in shifts.items():
         det = desync_camera(det, cam, d)
