@@ -3,12 +3,16 @@
 Beyond the paper, which assumes synchronised views (Section III-A). A camera whose frame numbers
 run ``o`` frames ahead sees the moving gymnast where the others saw it ``o`` frames earlier: its
 boxes leave the epipolar lines of the others' (Eq. 1). For every camera pair and every shift
-``d`` the cost is the mean over one view's boxes of the smallest Eq. 1 distance to the other
-view's boxes ``d`` frames later (capped, so people seen in one view only weigh the same at every
-shift); the offsets (camera 0 the reference, 0) are the joint choice over ``+-search`` frames
-that minimises the sum of the pairs' costs, each pair's curve scaled by its median and weighted by its depth, plus a small cost per camera moved. Sub-frame: a parabola through the joint cost at the
-best offset and its neighbours. Confidence per camera: how much worse its best offset two or more frames away is,
-as a share of the cost's spread (0: a tie, the data cannot decide; 1: one offset stands out).
+``d`` the cost is the mean over both views' boxes of the smallest Eq. 1 distance to the other
+view's boxes ``d`` frames away (capped, so a box whose partner is missing, or matched to another
+person at a wrong shift, counts the same at every shift), each box weighted by how far it moves
+across its own epipolar line over a few frames: a person standing still, or moving along the
+line, looks the same at every shift and says nothing. The offsets (camera 0 the reference, 0)
+are the joint choice over ``+-search`` frames that minimises the sum of the pairs' costs, each
+pair's curve scaled by its median and weighted by its depth, plus a small cost per camera moved.
+Sub-frame: a parabola through the joint cost at the best offset and its neighbours. Confidence
+per camera: how much worse its best offset two or more frames away is, as a share of the cost's
+spread (0: a tie, the data cannot decide; 1: one offset stands out).
 
 Convention (scene.yaml ``frame_offsets``): a camera with offset ``o`` shows at its frame ``f``
 what the reference shows at frame ``f - o``.
@@ -29,10 +33,13 @@ from ..detections import Detections
 from ..geometry.camera import Rig
 from ..geometry.epipolar import fundamental_matrices
 
-__all__ = ["SyncResult", "estimate_offsets", "pair_costs"]
+__all__ = ["SyncResult", "estimate_offsets", "offsets_from_costs", "pair_costs"]
 
-CAP = 1.0  # Eq. 1 distance a box with no partner counts for (the same person: about 0.1-0.3)
+CAP = 0.3  # Eq. 1 distance a box with no partner counts for (the same person: about 0.03-0.1 in sync)
 PRIOR = 0.03  # the cost of moving a camera, as a share of a pair's mean cost depth
+LAG = 2  # frames either side over which a box's motion is measured
+NEIGHBOUR = 0.5  # the nearest box within this share of the size is the same person
+MOTION_CAP = 0.5  # most a box weighs (its motion across the line, by size)
 LOW_CONFIDENCE = 0.05  # below this a camera's offset is reported as undecided
 
 
@@ -85,7 +92,7 @@ def _dense(det: Detections, rig: Rig, f0: int, T: int, max_boxes: int) -> np.nda
 def pair_costs(det: Detections, rig: Rig, shifts: np.ndarray, max_boxes: int = 12,
                frames: tuple[int, int] | None = None) -> tuple[np.ndarray, np.ndarray, int]:
     """(C, C, S) cost of every camera pair (i < j filled) at every shift ``d`` of ``shifts`` (S,):
-    view j's frame ``t + d`` against view i's frame ``t``; (C, C, S) how many boxes it averaged;
+    view j's frame ``t + d`` against view i's frame ``t``; (C, C, S) how many moving boxes it weighed;
     the number of frames with boxes in two views or more."""
     C = len(rig)
     if frames is not None:
@@ -102,24 +109,55 @@ def pair_costs(det: Detections, rig: Rig, shifts: np.ndarray, max_boxes: int = 1
     X = np.concatenate([B[..., :2], np.ones(B.shape[:-1] + (1,))], -1)  # (C, T, K, 3) homogeneous
     size = B[..., 2] + B[..., 3]
     for i, j in itertools.combinations(range(C), 2):
-        lj = _unit_lines(X[i] @ F[i, j].T)  # view i's boxes as lines in view j (T, K, 3), once per pair
-        li = _unit_lines(X[j] @ F[i, j])  # and view j's as lines in view i
-        for s, d in enumerate(shifts):
-            a, b = max(0, -d), min(T, T - d)  # frames t of view i with t + d inside
-            if b <= a:
-                continue
-            both = np.flatnonzero(has[i, a:b] & has[j, a + d:b + d]) + a
-            if not len(both):
-                continue
-            # Eq. 1 of every box pair (n, K, K): each point's distance to the other's line, by box size
-            di = np.abs(np.einsum("nac,nbc->nab", X[i, both], li[both + d])) / size[i, both][:, :, None]
-            dj = np.abs(np.einsum("nac,nbc->nab", lj[both], X[j, both + d])) / size[j, both + d][:, None, :]
-            D = di + dj
-            best = np.fmin(np.min(np.where(np.isfinite(D), D, np.inf), axis=2), CAP)
-            ok = np.isfinite(X[i, both, :, 0])
-            cost[i, j, s] = best[ok].mean()
-            count[i, j, s] = ok.sum()
+        num, den = np.zeros(len(shifts)), np.zeros(len(shifts))
+        for u, v, sign in ((i, j, 1), (j, i, -1)):  # view u's boxes against view v's, both ways
+            Fuv = F[u, v]
+            lv = _unit_lines(X[u] @ Fuv.T)  # view u's boxes as lines in view v (T, K, 3)
+            lu = _unit_lines(X[v] @ Fuv)  # view v's boxes as lines in view u
+            w = _across_motion(X[u], B[u], np.linalg.svd(Fuv)[2][-1])
+            for s, d in enumerate(sign * shifts):
+                a, b = max(0, -d), min(T, T - d)  # frames t of view u with t + d inside
+                if b <= a:
+                    continue
+                both = np.flatnonzero(has[u, a:b] & has[v, a + d:b + d]) + a
+                if not len(both):
+                    continue
+                # Eq. 1 of every box pair (n, K, K): each point's distance to the other's line, by box size
+                du = np.abs(np.einsum("nac,nbc->nab", X[u, both], lu[both + d])) / size[u, both][:, :, None]
+                dv = np.abs(np.einsum("nac,nbc->nab", lv[both], X[v, both + d])) / size[v, both + d][:, None, :]
+                D = np.fmin(np.where(np.isfinite(du + dv), du + dv, np.inf).min(axis=2), CAP)
+                ws = w[both]
+                num[s] += (ws * D).sum()
+                den[s] += ws.sum()
+                count[i, j, s] += np.count_nonzero(ws)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            cost[i, j] = np.where(den > 0, num / den, np.nan)
     return cost, count, int((has.sum(axis=0) >= 2).sum())
+
+
+def _across_motion(X: np.ndarray, B: np.ndarray, epipole: np.ndarray) -> np.ndarray:
+    """(T, K) how far each box moves across its epipolar line between frames ``t - LAG`` and
+    ``t + LAG`` (its nearest box there, same view), by its size, capped at ``MOTION_CAP``; 0 where
+    it has no neighbour. A box that moves along its line (or stands still) looks the same at
+    every shift: it weighs nothing in the pair's cost."""
+    T = len(X)
+    size = B[..., 2] + B[..., 3]
+    near = []
+    for lag in (-LAG, LAG):
+        Y = np.full_like(X[..., :2], np.nan)
+        a, b = max(0, -lag), min(T, T - lag)
+        P, Q = X[a:b, :, None, :2], X[a + lag:b + lag, None, :, :2]
+        dist = np.linalg.norm(P - Q, axis=-1) / size[a:b, :, None]  # (n, K, K)
+        dist = np.where(np.isfinite(dist), dist, np.inf)
+        k = dist.argmin(axis=2)
+        got = np.take_along_axis(dist, k[..., None], 2)[..., 0] < NEIGHBOUR
+        Y[a:b] = np.where(got[..., None], np.take_along_axis(X[a + lag:b + lag, :, :2], k[..., None], 1), np.nan)
+        near.append(Y)
+    move = near[1] - near[0]
+    normal = np.cross(X, epipole)[..., :2]  # the epipolar line through the box (it meets the epipole)
+    with np.errstate(invalid="ignore", divide="ignore"):  # (a box on the epipole: no line, no weight)
+        w = np.abs((move * normal).sum(-1)) / np.linalg.norm(normal, axis=-1) / size
+    return np.where(np.isfinite(w), np.fmin(w, MOTION_CAP), 0.0)
 
 
 def _unit_lines(lines: np.ndarray) -> np.ndarray:
@@ -135,9 +173,15 @@ def estimate_offsets(det: Detections, rig: Rig, search: int = 10, max_boxes: int
     det: boxes of all cameras (raw pixels, as read); rig: their cameras; frames: an optional
     (first, last) range to use. Cameras sharing no frames with the others get confidence 0.
     """
-    C = len(rig)
     shifts = np.arange(-2 * search, 2 * search + 1)
     cost, _, n_frames = pair_costs(det, rig, shifts, max_boxes, frames)
+    return offsets_from_costs(cost, rig.names, search, n_frames)
+
+
+def offsets_from_costs(cost: np.ndarray, names: tuple[str, ...], search: int, n_frames: int = 0) -> SyncResult:
+    """The joint offsets from (C, C, 4 * search + 1) pair costs (:func:`pair_costs` at shifts
+    ``-2 search .. 2 search``)."""
+    C = len(names)
     # a pair with no common frames adds nothing; each pair's curve scaled by its median (equal say)
     with np.errstate(invalid="ignore", divide="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # (the lower triangle: all NaN)
@@ -176,4 +220,4 @@ def estimate_offsets(det: Detections, rig: Rig, search: int = 10, max_boxes: int
         conf[c] = np.clip((far.min() - g[k]) / spread, 0, 1) if spread > 0 else 0.0
         if not np.isfinite(cost[:, c]).any() and not np.isfinite(cost[c]).any():
             conf[c] = 0.0
-    return SyncResult(rig.names, best.astype(np.int64), sub, conf, curves, search, n_frames)
+    return SyncResult(tuple(names), best.astype(np.int64), sub, conf, curves, search, n_frames)
