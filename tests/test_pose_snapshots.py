@@ -10,7 +10,8 @@ import pytest
 from gymtrack.errors import InputError
 from gymtrack.formats.mvor import MVOR_SKELETON
 from gymtrack.pose import LiftOptions, lift_track
-from gymtrack.pose.snapshots import given_lengths, measure_noise, pooled_bone_lengths
+from gymtrack.pose.anchor import given_lengths
+from gymtrack.pose.snapshots import measure_noise, pooled_bone_lengths
 from gymtrack.poses import HOW_PLANE, HOW_TRIANGULATED
 from gymtrack.skeletons import COCO17
 

@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errors import InputError
+from ..skeletons import Skeleton
 from .dlt import fuse_rays_plane, rays
 
 
@@ -150,3 +152,15 @@ def pull_to_bones(X: np.ndarray, strong: np.ndarray, weak: np.ndarray, origin: n
             newly[sel, b] = True
         anchored |= newly
     return X, int(moved.sum())
+
+
+def given_lengths(options, skeleton: Skeleton) -> np.ndarray:
+    """(B,) ``options.bone_lengths_m`` checked against ``skeleton.bones``; all NaN when not given."""
+    B = len(np.asarray(skeleton.bones).reshape(-1, 2))
+    if options.bone_lengths_m is None:
+        return np.full(B, np.nan)
+    L = np.asarray(options.bone_lengths_m, np.float64)
+    if L.shape != (B,) or (np.isfinite(L) & (L <= 0)).any() or np.isinf(L).any():
+        raise InputError(f"must be {B} lengths in metres (> 0, NaN = unknown), one per bone of the {skeleton.name} "
+                         f"skeleton, got {options.bone_lengths_m!r}", source="LiftOptions", field="bone_lengths_m")
+    return L

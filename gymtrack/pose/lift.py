@@ -40,12 +40,11 @@ from ..geometry import Rig
 from ..geometry.triangulation import triangulate_views
 from ..poses import HOW_FUSED, HOW_NONE, HOW_PLANE, HOW_TRIANGULATED, Poses3D
 from ..skeletons import Skeleton
-from .anchor import anchor_on_plane, bone_lengths, lines_of_sight, opposite_only, plane_spread, pull_to_bones
+from .anchor import anchor_on_plane, bone_lengths, given_lengths, lines_of_sight, opposite_only, plane_spread, pull_to_bones
 from .consensus import settle_ties, view_consensus
 from .dlt import gauss_newton, residuals, weighted_dlt
 from .limb_check import LimbCheck, check_arms
 from .smooth import smooth_track
-from .snapshots import given_lengths
 from .temporal import TemporalPrior, apply_prior
 
 METHODS = ("dlt", "robust")

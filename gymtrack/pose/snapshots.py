@@ -19,23 +19,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InputError
 from ..poses import HOW_TRIANGULATED
 from ..geometry import Rig
 from ..skeletons import Skeleton
 from .anchor import bone_lengths
-
-
-def given_lengths(options, skeleton: Skeleton) -> np.ndarray:
-    """(B,) ``options.bone_lengths_m`` checked against ``skeleton.bones``; all NaN when not given."""
-    B = len(np.asarray(skeleton.bones).reshape(-1, 2))
-    if options.bone_lengths_m is None:
-        return np.full(B, np.nan)
-    L = np.asarray(options.bone_lengths_m, np.float64)
-    if L.shape != (B,) or (np.isfinite(L) & (L <= 0)).any() or np.isinf(L).any():
-        raise InputError(f"must be {B} lengths in metres (> 0, NaN = unknown), one per bone of the {skeleton.name} "
-                         f"skeleton, got {options.bone_lengths_m!r}", source="LiftOptions", field="bone_lengths_m")
-    return L
 
 
 def pooled_bone_lengths(xyz: np.ndarray, how: np.ndarray, n_views: np.ndarray, skeleton: Skeleton,
