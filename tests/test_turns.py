@@ -22,8 +22,21 @@ def test_a_swing_back_starts_a_new_count_and_the_direction_is_kept():
     assert len(got) == 1
     start, end, d = got[0]
     assert d == -1
-    assert start == 31  # the gradient changes sign at the turning point's next row
+    assert start == 30  # counted from the turning point (300 deg)
     assert s[start] - s[end] >= 350.0 and s[start] - s[end - 1] < 350.0
+
+
+def test_a_sway_back_under_the_threshold_keeps_the_count():
+    # a giant, a 12 deg sway back in the handstand (a measured skeleton's noise), then on: two turns
+    # counted from row 0; a 30 deg return is a swing's turning point and restarts the count there
+    a = 20.0 * np.arange(10)                        # 0 .. 180
+    sway = np.array([174.0, 168.0, 174.0, 180.0])   # 12 deg back and forth
+    b = 180.0 + 20.0 * np.arange(1, 28)             # 200 .. 720
+    got = full_turns(np.concatenate([a, sway, b]), np.arange(41), fps=30.0)
+    assert [(s, d) for s, _, d in got] == [(0, 1), (got[0][1] + 1, 1)] and len(got) == 2
+    swing = np.array([170.0, 160.0, 150.0, 160.0, 170.0, 180.0])  # 30 deg back: a turning point at row 9
+    got = full_turns(np.concatenate([a, swing, b]), np.arange(43), fps=30.0)
+    assert got[0][0] == 12 and len(got) == 1  # from the lowest point (150 deg) on: 150 -> 720 is one turn
 
 
 def test_a_slow_turn_is_no_circle_and_a_pause_keeps_direction():

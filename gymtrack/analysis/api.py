@@ -186,12 +186,12 @@ def analyse(poses3d: Poses3D, scene: Scene, track_id: int | None = None, *, fps:
     geo = scene_geometry(scene)
     miss = _missing_joints(J, geo.somersault_axis, geo)
     height = body_height(J.X)
-    sup, grip = support_codes(J.X, geo, height, J.frame, fps)
+    sup, grip = support_codes(J.X, geo, height, J.frame, fps, J.sigma)
     segs = segments(J.frame, sup)
     cuts = segment_cutoffs(segs, sup, cutoff_hz, support_cutoff_hz)
     cols, raw, Xf = measure_samples(J, segs, fps, cuts, geo.somersault_axis, body, samples, seed)
     if cutoff_hz:  # contact again on the filtered joints (the filter kept every take-off and landing)
-        sup, grip = support_codes(Xf, geo, height, J.frame, fps)
+        sup, grip = support_codes(Xf, geo, height, J.frame, fps, J.sigma)
     for m in list(cols):
         if m in miss:
             cols[m][:] = np.nan

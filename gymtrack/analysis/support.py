@@ -139,9 +139,12 @@ def apparatus_distance(X: np.ndarray, geo: Geometry, on_top: bool = False, bars:
 
 
 def support(X: np.ndarray, geo: Geometry, height: float, frame: np.ndarray | None = None,
-            fps: float = 30.0) -> tuple[np.ndarray, np.ndarray]:
+            fps: float = 30.0, sigma: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(M,) support codes (:data:`NONE`, :data:`FLOOR`, :data:`APPARATUS`) and (M,) bool: both wrists
-    touch a bar (the hands hold it: circles). X: (M, K, 3); height: the body's height (m).
+    touch a bar (the hands hold it: circles). X: (M, K, 3); height: the body's height (m); sigma:
+    (M, K) the joints' position sd (m): a wrist within :data:`TOUCH` + :data:`HOLD_SDS` sd of a bar
+    holds it for the grip (a measured wrist swinging in a giant is 5-20 cm off the bar for a frame
+    or two; the support codes keep the plain :data:`TOUCH`).
 
     Touching the apparatus wins over the floor (hands on the bar, feet on the floor is a mount).
     A frame without any joint is ``none`` only if it has joints; a frame with none at all is NONE
@@ -176,7 +179,8 @@ def support(X: np.ndarray, geo: Geometry, height: float, frame: np.ndarray | Non
         w = X[:, list(WRISTS)]
         with np.errstate(invalid="ignore"):
             d = bar_distance(w, geo.bar_a, geo.bar_b, geo.bar_r)  # (M, 2, B)
-            grip = np.all(np.nan_to_num(d, nan=np.inf).min(-1) < TOUCH, axis=1)  # each hand on a bar or ring
+            reach = TOUCH if sigma is None else TOUCH + HOLD_SDS * np.nan_to_num(sigma[:, list(WRISTS)])
+            grip = np.all(np.nan_to_num(d, nan=np.inf).min(-1) < reach, axis=1)  # each hand on a bar or ring
     return codes, grip
 
 
