@@ -60,6 +60,11 @@ CAP = 16.0  # one key's most share of the evidence (scatters squared): one key c
 #: 0.5 degree knock passes in 69 of 98, a 1 degree one in 95 of 98
 EVIDENCE, MARGIN = 50.0, 10.0
 EVIDENCE_HELD, MARGIN_HELD, OWN_HELD = 25.0, 5.0, 2.0
+#: a named camera's most moved own key, over the next second (its mean at the samples that judge it),
+#: still moved this many scatters along the shift that named it: a turned camera stays turned (the
+#: knocks of bench_faults hold 2.5 or more); a change of the people in the samples with a wrong
+#: association comes and goes (a clean 25 s high bar's warm-up gymnast and coach: 1.4, -0.7)
+HOLD = 2.0
 FULL_SAMPLES = 1  # samples wholly after a move that its turn is fitted to
 MAX_RESIDUAL = 0.05  # radians (3 deg): a larger residual is a wrong association, not drift
 MIN_POINTS = 8  # points of a camera x pair in a sample for its median to count
@@ -153,7 +158,10 @@ class DriftMonitor:
         self.turns: dict[int, tuple[int, np.ndarray]] = {}  # camera -> (from frame, rotation now vs calibrated)
         self.first: int | None = None
         self._held: int | None = None  # the camera named at the last sample by the held rule
-        self._named: tuple | None = None  # (camera, its first moved sample's frame, start): to be reported
+        # (camera, its first moved sample's frame, start, the frame named at, its most moved own key, that
+        # key's shift, baseline and scatter (None once the next second held them), how far it held (scatters)
+        # at each later sample): to be reported
+        self._named: tuple | None = None
         self._own = [np.flatnonzero(self.key_camera == c) for c in range(C)]  # each camera's own keys
 
     # ------------------------------------------------------------ per window
@@ -290,21 +298,31 @@ class DriftMonitor:
         first = self.n_base  # the first sample of the run of moved samples reaching into the last second
         while first > 0 and moved[first - 1]:
             first -= 1
-        # named: reported once FULL_SAMPLES samples after the first moved one (which may hold frames
+        # named: reported once its key held over the next second and FULL_SAMPLES samples after the first moved one (which may hold frames
         # from before the move) have come, the turn fitted to those
-        self._named = (c, int(self.frames[first]), int(self.frames[first]) - self.step + 1)
-        self._confirm()
+        self._named = (c, int(self.frames[first]), int(self.frames[first]) - self.step + 1, int(self.frames[-1]), k,
+                       shift[k].copy(), base[k].copy(), float(sigma[k]), [])
 
     def _confirm(self) -> None:
         """The named camera's event, once FULL_SAMPLES samples wholly after its first moved one are
         in: the turn fitted to the keys' shifts over those samples against the samples before the
         move (:meth:`_fit`) is the camera's re-estimated rotation; the rotation fitted to its own
         points (Kabsch) is reported beside it."""
-        c, first_frame, started = self._named
+        c, first_frame, started, named_frame, k, step, base, scatter, held = self._named
         at = np.flatnonzero(self.frames == first_frame)
         if not len(at) or at[0] < 1:  # (the move's sample left the history: named again if it holds)
             self._named = None
             return
+        if step is not None:  # a knock stays: the named key over the next second, along the shift that named it
+            dev = self.meds[k, -1] - base
+            if self.frames[-1] > named_frame and np.isfinite(dev).all():
+                held.append(float(dev @ step) / (float(np.linalg.norm(step)) * scatter))
+            if len(held) < self.n_recent:
+                return
+            if np.mean(held) < HOLD:  # a change of the people in the samples, or a wrong association
+                self._named = None
+                return
+            self._named = (c, first_frame, started, named_frame, k, None, None, None, held)
         first = int(at[0])
         if len(self.frames) - 1 - first < FULL_SAMPLES:
             return
