@@ -364,7 +364,7 @@ def test_reidentify_gives_the_target_to_a_better_supported_qualifying_track():
     paper = _run_with_support(TargetSelector(identify_frames=10), range(40), rows)
     assert paper[4] == -1 and np.all(paper[5:] == 1)  # the paper's Eq. 13 holds the phantom
     counts = {}
-    sel = TargetSelector(identify_frames=10, counts=counts)
+    sel = TargetSelector(identify_frames=10, reidentify=True, counts=counts)
     target = _run_with_support(sel, range(40), rows)
     assert np.all(target[5:15] == 1)  # frames 10..14: 5 of 10 better supported, not more than half
     assert np.all(target[15:] == 2)  # frame 15: 6 of the last 10
@@ -376,6 +376,18 @@ def test_reidentify_needs_a_qualifying_track_with_more_support():
     # track 2 as well supported as the target; track 3 better supported but never qualifying
     # (on the floor); track 4 better supported in only 5 of every 10 frames
     rows = {f: [(1, True, 4), (2, f >= 10, 4), (3, False, 8), (4, f >= 10, 6 if f % 2 else 3)] for f in range(40)}
-    sel = TargetSelector(identify_frames=10, counts=counts)
+    sel = TargetSelector(identify_frames=10, reidentify=True, counts=counts)
     target = _run_with_support(sel, range(40), rows)
     assert np.all(target[5:] == 1) and sel.switches == 0 and counts == {}
+
+
+def test_paper_selector_keeps_no_support_and_reidentify_needs_it():
+    rows = {f: [(1, True, 2)] + ([(2, True, 7)] if f >= 10 else []) for f in range(20)}
+    paper = TargetSelector(identify_frames=10)
+    target = _run_with_support(paper, range(20), rows)
+    assert np.all(target[5:] == 1) and len(paper) == 20 and len(paper._support) == 0  # frames 10..19, 2 rows each
+    on = TargetSelector(identify_frames=10, reidentify=True)
+    _run_with_support(on, range(20), rows)
+    assert len(on._support) == len(on) and on.counts == {"target_reidentifications": 1}
+    with pytest.raises(ValueError, match="support"):
+        on.select(20, 20, np.array([20]), np.array([1]), np.array([True]), np.array([True]), {})

@@ -55,14 +55,16 @@ def identify_indicator(
 class TargetSelector:
     """Eq. 13 over a stream of final track points; see the module docstring for the rule.
 
-    identify_frames: Delta. State: the indicator rows of the last Delta frames (bounded by
-    Delta x the number of tracks in view).
+    identify_frames: Delta; reidentify: the recipe's ``reidentify`` (False: the paper's hold until
+    the target ends or leaves); counts: the tracker's counters (``target_reidentifications``).
+    State: the indicator rows of the last Delta frames (bounded by Delta x the number of tracks
+    in view), with each point's support only under ``reidentify``.
     """
 
-    def __init__(self, identify_frames: int = 30, counts: dict | None = None):
+    def __init__(self, identify_frames: int = 30, reidentify: bool = False, counts: dict | None = None):
         self.delta = int(identify_frames)
-        self.counts = counts  # the recipe's reidentify: its counters; None is the paper's hold
-        self.reidentify = counts is not None
+        self.reidentify = bool(reidentify)
+        self.counts = {} if counts is None else counts
         self.target = -1
         self.last_target = -1
         self.switches = 0
@@ -71,7 +73,7 @@ class TargetSelector:
         self._tid = np.zeros(0, np.int64)
         self._ind = np.zeros(0, bool)
         self._inperf = np.zeros(0, bool)
-        self._support = np.zeros(0, np.int64)
+        self._support = np.zeros(0, np.int64)  # kept only under reidentify: the paper never reads it
 
     def __len__(self) -> int:
         return len(self._frame)
@@ -102,9 +104,10 @@ class TargetSelector:
         self._tid = np.concatenate([self._tid[keep], tid])
         self._ind = np.concatenate([self._ind[keep], ind])
         self._inperf = np.concatenate([self._inperf[keep], inperf])
-        if support is None:
-            support = np.zeros(len(frame), np.int64)
-        self._support = np.concatenate([self._support[keep], np.asarray(support, np.int64)])
+        if self.reidentify:
+            if support is None:
+                raise ValueError("reidentify needs each point's support (point_support)")
+            self._support = np.concatenate([self._support[keep], np.asarray(support, np.int64)])
         half = 0.5 * self.delta
         out = np.full(b - a + 1, -1, np.int64)
         if len(self._frame) == 0:  # nobody in the last Delta frames: no target, nothing to identify

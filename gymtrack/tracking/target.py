@@ -48,7 +48,8 @@ class TargetStage:
     final frames (see the module docstring).
 
     rig: the cameras; scene: performance space, target heights, planes and parameters
-    (``identify_frames``, ``backfill_frames``, ``max_gap``, ``box_scale``).
+    (``identify_frames``, ``backfill_frames``, ``max_gap``, ``box_scale``); reidentify: the
+    recipe's ``reidentify`` (see :class:`~.identify.TargetSelector`); counts: the tracker's counters.
 
     Use: ``target, boxes = stage.update(a, b, tracks, boxes, ended)`` for every run of final
     frames ``a..b`` in order, then ``stage.finish()``. State: the selector's last
@@ -56,7 +57,8 @@ class TargetStage:
     and the body box's half-length.
     """
 
-    def __init__(self, rig: Rig, scene: Scene, handover: TargetHandover | None = None, reidentify: dict | None = None):
+    def __init__(self, rig: Rig, scene: Scene, handover: TargetHandover | None = None, reidentify: bool = False,
+                 counts: dict | None = None):
         p = scene.params
         self.handover = handover  # the recipe's handover (.handover): None is the paper's Eq. 13 alone
         self.flights = None if handover is None else handover.flights  # the recipe's ballistic (.ballistic)
@@ -67,8 +69,8 @@ class TargetStage:
         self.planes = [Plane.from_spec(s) for s in scene.planes]
         self.identify_frames, self.backfill_frames, self.box_scale = p.identify_frames, p.backfill_frames, p.box_scale
         self.half_depth = p.body_half_depth  # Eq. 14's body box across the plane
-        # the recipe's reidentify (its counters' dict, or None: the paper's hold until it ends or leaves)
-        self.selector = TargetSelector(p.identify_frames, counts=reidentify)
+        # the recipe's reidentify (False: the paper's hold until the target ends or leaves)
+        self.selector = TargetSelector(p.identify_frames, reidentify=reidentify, counts=counts)
         self.backfill = TargetBackfill(p.backfill_frames)
         self.smoother = TargetSmoother(p.max_gap)
         self.memory: dict = {}  # Eq. 14: the body box's last half-length
