@@ -107,7 +107,16 @@ def run(suite: str, methods: list[str]) -> list[dict]:
     return out
 
 
-def report(routines: list[dict], method: str) -> None:
+def decompose(routines: list[dict], method: str) -> tuple[dict, list[str]]:
+    """R - 1 taken apart: per n_cam, ``{"keys": [(apparatus, n_cam)], "M", "O": pooled AED of the
+    method and the oracle per key, "Mb", "Ob": the same over the frames both cover, "R": the
+    ratio, "parts": per key (len(CATEGORIES) + 1,) shares of R - 1 (the categories, then
+    ``cover``), "n": per key frames of each category}``; and the runs of frames where the
+    method's target follows someone else, > 0.5 m worse than the oracle's.
+
+    routines: :func:`run`'s entries (``frames``, and per method ``err``, ``src``, ``mine``,
+    ``other``, ``mask``). The parts of a key add up to ``(M - O) / sum(O)``: the categories split
+    the frames both cover, and ``cover`` is the rest."""
     acc: dict = defaultdict(lambda: defaultdict(float))
     events = []
     for e in routines:
@@ -129,6 +138,7 @@ def report(routines: list[dict], method: str) -> None:
                 rel = e["frames"][run_] - e["frames"][0]
                 events.append(f"{e['routine']}: performing frames {rel[0]}-{rel[-1]} of {e['frames'].size}, "
                               f"{run_.size} frames {np.mean(me[run_]):.1f} m off (oracle {np.mean(oe[run_]):.2f} m)")
+    out = {}
     for n in sorted({k[1] for k in acc}):
         keys = [(app, n) for app in APPARATUS_NAMES if (app, n) in acc]
         M = {k: acc[k]["m_sum"] / acc[k]["m_n"] for k in keys}
@@ -136,18 +146,29 @@ def report(routines: list[dict], method: str) -> None:
         Mb = {k: acc[k]["mb_sum"] / acc[k]["b_n"] for k in keys}
         Ob = {k: acc[k]["ob_sum"] / acc[k]["b_n"] for k in keys}
         so = sum(O.values())
-        print(f"\nn_cam {n}: AED {method} / oracle = {sum(M.values()) / so:.3f} "
+        parts = {k: np.array([acc[k][c] / acc[k]["b_n"] / so for c in CATEGORIES] + [((M[k] - Mb[k]) - (O[k] - Ob[k])) / so])
+                 for k in keys}
+        out[n] = {"keys": keys, "M": M, "O": O, "Mb": Mb, "Ob": Ob, "R": sum(M.values()) / so, "parts": parts,
+                  "n": {k: {c: int(acc[k]["n_" + c]) for c in CATEGORIES} for k in keys}}
+    return out, events
+
+
+def report(routines: list[dict], method: str) -> None:
+    gap, events = decompose(routines, method)
+    for n, g in gap.items():
+        keys, M, O, Mb, Ob = g["keys"], g["M"], g["O"], g["Mb"], g["Ob"]
+        so = sum(O.values())
+        print(f"\nn_cam {n}: AED {method} / oracle = {g['R']:.3f} "
               f"({sum(M.values()) / len(keys):.3f} / {so / len(keys):.3f} m); over the frames both cover "
               f"{sum(Mb.values()) / sum(Ob.values()):.3f}")
         print(f"  share of R - 1 by frame kind (ratio points); frames of each kind\n  {'apparatus':15s} {'AED':>6s} {'oracle':>6s} "
               + " ".join(f"{c[:8]:>8s}" for c in (*CATEGORIES, "cover")) + "  | " + " ".join(f"{c[:6]:>6s}" for c in CATEGORIES[1:]))
         total = np.zeros(len(CATEGORIES) + 1)
         for k in keys:
-            a = acc[k]
-            parts = np.array([a[c] / a["b_n"] / so for c in CATEGORIES] + [((M[k] - Mb[k]) - (O[k] - Ob[k])) / so])
+            parts = g["parts"][k]
             total += parts
             print(f"  {k[0]:15s} {M[k]:6.3f} {O[k]:6.3f} " + " ".join(f"{v:+8.3f}" for v in parts)
-                  + "  | " + " ".join(f"{int(a['n_' + c]):6d}" for c in CATEGORIES[1:]))
+                  + "  | " + " ".join(f"{g['n'][k][c]:6d}" for c in CATEGORIES[1:]))
         print(f"  {'all':15s} {'':6s} {'':6s} " + " ".join(f"{v:+8.3f}" for v in total) + f"   (sum {total.sum():+.3f})")
     print(f"\n{method}: runs of >= 5 frames where its target follows someone else, > 0.5 m worse than the oracle's:")
     print("\n".join(f"  {x}" for x in events) or "  none")
