@@ -1,0 +1,46 @@
+"""benchmarks/bench_sync.py: the recovered-exactly share, and the cases it solves from one set of
+pair cost curves (each camera moved by each offset), on hand-made curves."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+
+_spec = importlib.util.spec_from_file_location("bench_sync", Path(__file__).resolve().parents[1] / "benchmarks" / "bench_sync.py")
+bench_sync = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(bench_sync)
+
+
+def test_share_counts_the_exact_cases():
+    rows = [{"exact": True}, {"exact": False}, {"exact": True}]
+    assert bench_sync.share(rows) == "2/3 (66.7 %)"
+    assert bench_sync.share(rows[:1]) == "1/1 (100.0 %)"
+    assert bench_sync.share([{"exact": False}]) == "0/1 (0.0 %)"
+    assert bench_sync.share([]) == "-"
+
+
+def test_cases_move_each_cameras_curves_by_its_offset():
+    """Three cameras in sync: every pair's cost is lowest at shift 0 (1 + |shift|). Camera c moved
+    by d frames moves the lowest cost of its pairs (c, j) to -d and of (i, c) to +d: every case is
+    solved exactly, the clean one at 0."""
+    S, M = bench_sync.SEARCH, bench_sync.MOST
+    shifts = np.arange(-2 * S - M, 2 * S + M + 1)
+    cost = np.full((3, 3, len(shifts)), np.nan)
+    for i, j in ((0, 1), (0, 2), (1, 2)):
+        cost[i, j] = 1.0 + np.abs(shifts)
+    rows = bench_sync.cases(cost, 600)
+    assert len(rows) == 1 + 2 * 2 * M  # the clean routine, cameras 1 and 2 by +-1..+-M
+    assert rows[0]["offset"] == 0 and rows[0]["found"] == [0, 0, 0]
+    for r in rows:
+        want = [0, 0, 0]
+        want[r["cam"]] = r["offset"]
+        assert r["found"] == want and r["exact"], r
+    assert bench_sync.share(rows) == f"{len(rows)}/{len(rows)} (100.0 %)"
+    # camera 2's curves lowest one frame off: every case with camera 2 moved is found one frame off
+    cost[0, 2] = 1.0 + np.abs(shifts - 1)
+    cost[1, 2] = 1.0 + np.abs(shifts - 1)
+    off = bench_sync.cases(cost, 600)
+    assert all(r["found"][2] == (r["offset"] if r["cam"] == 2 else 0) + 1 for r in off)
+    assert not any(r["exact"] for r in off)
