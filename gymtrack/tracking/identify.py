@@ -91,8 +91,8 @@ class TargetSelector:
     def select(self, a: int, b: int, frame: np.ndarray, tid: np.ndarray, ind: np.ndarray, inperf: np.ndarray,
                ended: dict[int, int], support: np.ndarray | None = None) -> np.ndarray:
         """Final frames ``a..b`` at once: rows (n,) of their track points (frame, tid, ind, inperf;
-        support: how well each point is observed, see :func:`point_support`, used only with
-        ``reidentify``). Returns (b - a + 1,) the target's track id per frame (-1: none).
+        support: how well each point is observed, see :func:`point_support`, needed with
+        ``reidentify``, ignored without). Returns (b - a + 1,) the target's track id per frame (-1: none).
 
         The rule is applied frame by frame, but in runs: while the target stays, and while no
         track qualifies, every frame of the run is decided by one window count per frame
