@@ -102,3 +102,28 @@ def test_a_pikes_straight_knees_are_read_with_the_layouts_noise_allowance():
     assert SHAPES[shape_of(cols, 0, M - 1)[0][0]] == "open"
     cols["left_knee"] = knee[None]
     assert SHAPES[shape_of(cols, 0, M - 1)[0][0]] == "pike"
+
+
+def test_a_noisy_flights_shape_is_read_as_held_over_a_sixth_of_a_second():
+    """Hips held at 95 deg (open: not under 90) with straight knees, read with +-5 deg of noise and
+    one frame at 84: frame by frame the most closed frame is a pike; with an 8 deg sd the angles
+    are read as held over 5 frames (30 Hz) and the flight is open; with a 1 deg sd (a marker or
+    true skeleton) the single frame still decides."""
+    from gymtrack.analysis.flights import SHAPES, held_angles, shape_of
+
+    M = 24
+    hip = np.concatenate([np.linspace(170, 95, 6), np.full(12, 95.0), np.linspace(95, 170, 6)])
+    hip_read = hip + np.where(np.arange(M) % 2, 5.0, -5.0)
+    hip_read[11] = 84.0
+    knee = np.full(M, 178.0)
+    cols = {"left_hip": hip_read[None], "right_hip": hip_read[None], "left_knee": knee[None], "right_knee": knee[None]}
+
+    def sd(deg):
+        return {f"{s}_{j}": np.full(M, deg) for s in ("left", "right") for j in ("hip", "knee")}
+
+    assert SHAPES[shape_of(cols, 0, M - 1)[0][0]] == "pike"
+    assert SHAPES[shape_of(cols, 0, M - 1, sd(1.0), fps=30.0)[0][0]] == "pike"
+    assert SHAPES[shape_of(cols, 0, M - 1, sd(8.0), fps=30.0)[0][0]] == "open"
+    # the held mean: NaN-aware, the ends average the frames the flight has
+    x = np.array([[1.0, 2.0, np.nan, 4.0, 5.0]])
+    np.testing.assert_allclose(held_angles(x, 3), [[1.5, 1.5, 3.0, 4.5, 4.5]])
