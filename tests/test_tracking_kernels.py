@@ -127,7 +127,7 @@ def test_intersect_rays_plane_matches_the_numpy_formula(rng):
 
 
 def test_regroup_kernel_matches_its_numpy_reference():
-    from gymtrack.tracking.regroup import regroup_pairs
+    from gymtrack.tracking.regroup import regroup, regroup_pairs
     from reference.regroup import regroup_pairs_numpy
 
     rng = np.random.default_rng(7)
@@ -158,4 +158,13 @@ def test_regroup_kernel_matches_its_numpy_reference():
         if groups is not None:
             assert groups.tolist() == ref_groups.tolist()
             found += 1
+        # the tracker's step: to_plane gains the pairs' segments, floor_only loses them, fresh: not in floor_only
+        to_plane = np.flatnonzero(rng.random(K) < 0.3)
+        floor_only = np.setdiff1d(np.flatnonzero(rng.random(K) < 0.3), to_plane)
+        counts = {"segments_regrouped": 0}
+        seg2, groups2, plane, floor, fresh = regroup(tested, kept, D2, camera, opposite, 0.3, to_plane, floor_only, counts)
+        assert seg2.tolist() == ref_seg.tolist() and counts["segments_regrouped"] == len(ref_seg)
+        assert plane.tolist() == np.union1d(to_plane, ref_seg).tolist()
+        assert floor.tolist() == np.setdiff1d(floor_only, ref_seg).tolist()
+        assert fresh.tolist() == np.setdiff1d(ref_seg, floor_only).tolist()
     assert found > 20  # the test saw pairs, not only empty answers

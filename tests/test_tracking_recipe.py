@@ -369,6 +369,53 @@ def test_gymnast_only_keeps_a_regrouped_pair_that_meets_eq13():
     left = gymnast_only(pl, np.array([0, 1, 2, 3, 4]), space, target, counts)
     # kept: the gymnast's pair, and the pair of no regrouped segment; left out: the phantom, the lone view
     assert left.members.tolist() == [[0, 1, -1, -1], [5, 6, -1, -1]] and counts["regrouped_left_out"] == 2
+
+
+def test_pairs_only_keeps_a_regrouped_segment_on_the_floor_with_its_partner_only():
+    from gymtrack.tracking.regroup import pairs_only
+    from gymtrack.tracking.types import WindowTracklets3D
+
+    # segments 0/1 and 2/3 regrouped pairs of opposite views 0 and 1; 4 a ghost's segment (paired with
+    # 5) that the floor could take alone before regrouping; 6 and 7 no pair
+    groups = np.array([1, 1, 3, 3, 5, 5, 0, 0])
+    fresh = np.array([0, 1, 2, 3])
+    members = np.array([[0, 1, 6, -1],  # the pair and a third view: kept
+                        [2, -1, -1, -1],  # one view of a fresh pair alone: left out
+                        [-1, 3, -1, 7],  # its partner with another view: left out
+                        [4, -1, -1, -1],  # the ghost's segment alone, as without regrouping: kept
+                        [-1, -1, 6, 7]])  # no regrouped segment: kept
+    W = 2
+    fl = WindowTracklets3D(0, np.zeros((5, W, 3)), np.full((5, W), 1.8), np.zeros((5, W)), np.ones((5, W), bool),
+                           np.ones((5, W), np.int8), np.ones((5, W), np.int8), members, np.full(5, -1))
+    counts = {"regrouped_left_out": 0}
+    left = pairs_only(fl, fresh, groups, counts)
+    assert left.members.tolist() == [[0, 1, 6, -1], [4, -1, -1, -1], [-1, -1, 6, 7]] and counts["regrouped_left_out"] == 2
+    # nothing left
+    assert pairs_only(fl.subset(np.array([False, True, True, False, False])), fresh, groups, counts) is None
+
+
+@pytest.fixture(scope="module")
+def bars_3():
+    """Parallel bars with three target views (the default suite's seed-0 routine, 25 s): coaches and
+    the next gymnasts stand at the image edges of the opposite pair, their clusters dropped by Eq. 4."""
+    sim = simulate_routine("parallel_bars", n_cam=3, seed=2617721224, seconds=25)
+    return sim.rig, sim.scene, sim.detections, sim
+
+
+def test_regroup_adds_no_false_positives_on_the_floor(bars_3):
+    sim = bars_3[3]
+
+    def far(res):  # track points more than 1 m from every simulated person (MOT's false positives)
+        c = sim.centre[:, res.tracks.frame - sim.frames[0]]
+        return int(np.count_nonzero(np.nanmin(np.linalg.norm(c - res.tracks.xyz[None], axis=2), axis=0) > 1.0))
+
+    on, off = _run(bars_3, PLUS, "bars3"), _run(bars_3, PLUS.without("regroup"), "bars3")
+    assert on.summary["segments_regrouped"] > 0 and on.summary["regrouped_left_out"] > 0
+    # one view of a regrouped pair placed alone on the floor (a box cut by the image edge) made
+    # ~190 points a metre off for seconds; the pair's two views agreeing on the floor does not
+    assert far(on) <= far(off) + 5
+
+
 def test_reidentify_changes_only_the_target(rings):
     on, off = _run(rings, PLUS, "rings"), _run(rings, PLUS.without("reidentify"), "rings")
     # the 3D tracks are the same; the target differs only where a re-identification happened

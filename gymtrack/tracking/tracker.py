@@ -75,7 +75,7 @@ from .linking import WindowLinker
 from .plane_fallback import plane_split
 from .plane_fit import REFINE_EVERY
 from .plane_refine import PlaneRefiner
-from .regroup import gymnast_only, regroup
+from .regroup import gymnast_only, pairs_only, regroup
 from .reconstruct import cluster_members, fallback_segments, opposite_clusters, outliers, outliers_at_mean, triangulate_clusters
 from .single_view import IoUTracker
 from .single_view_motion import MotionIoUTracker, needs_motion
@@ -160,7 +160,7 @@ class Tracker:
         self.refiner = PlaneRefiner(self.P, scene, self.planes[0], every) if m.refine_plane and every else None
         self._space_mean = self.space if m.outliers_at_mean else None  # Eq. 4 by the mean with the ghost test
         self._solo_space = self.perf_space if m.solo_inside else None  # one view alone only inside S_perf
-        self._regrouped, self._groups = np.zeros(0, np.int64), None  # this window's regrouped pairs (.regroup)
+        self._regrouped, self._groups, self._fresh = np.zeros(0, np.int64), None, np.zeros(0, np.int64)  # (.regroup)
         # stream position
         self.first_frame: int | None = None
         self.last_frame: int | None = None
@@ -329,7 +329,7 @@ class Tracker:
         if labels is None:
             return None, np.arange(len(segs))
         fused = None
-        self._regrouped, self._groups = np.zeros(0, np.int64), None
+        self._regrouped, self._groups, self._fresh = np.zeros(0, np.int64), None, np.zeros(0, np.int64)
         to_plane = self._floor_only = np.zeros(0, np.int64)
         if not len(segs):
             return None, to_plane
@@ -356,7 +356,7 @@ class Tracker:
         else:
             tri = self._drop_outliers(tri)
         if tested is not None:  # a dropped cluster's opposite pairs on to the plane (.regroup)
-            self._regrouped, self._groups, to_plane, self._floor_only = regroup(
+            self._regrouped, self._groups, to_plane, self._floor_only, self._fresh = regroup(
                 tested, tri.members, D2, segs.camera, self.opposite, p.cluster_2d, to_plane, self._floor_only, self.counts)
         if self.refiner is not None:  # the plane's points: what passed the tests, and the opposite pairs
             self.refiner.observe(segs, tri, members[fallback & ((members >= 0).sum(axis=1) >= 2)])
@@ -381,7 +381,9 @@ class Tracker:
         if self.method.floor and len(to_plane) + len(self._floor_only):
             floor, to_plane = floor_split(segs, to_plane, D2, self.rig.arrays, p, self.scene, self.association == "oracle",
                                           self.counts, self._floor_only, self.method.outliers_at_mean)
-        elif len(self._floor_only):  # the ghosts' segments, without a floor to take them
+        if floor is not None and len(self._fresh):  # a new regrouped segment on the floor only with its partner
+            floor = pairs_only(floor, self._fresh, self._groups, self.counts)
+        elif len(self._floor_only) and not self.method.floor:  # the ghosts' segments, without a floor to take them
             self.counts["segments_dropped_ghost"] += len(self._floor_only)
         if not len(to_plane):
             return None, floor

@@ -45,7 +45,59 @@ def regroup_pairs(tested, kept, D2, camera, opposite, cut):
     return groups
 
 
+@njit(cache=True)
+def regroup_step(tested, kept, D2, camera, opposite, cut, to_plane, floor_only):
+    """The tracker's step (:func:`gymtrack.tracking.regroup.regroup`) in one call: :func:`regroup_pairs`,
+    then ``to_plane`` (sorted int64) with the pairs' segments, ``floor_only`` without them, and the
+    fresh pairs' segments (those not in ``floor_only``). Returns groups, the pairs' segments (sorted),
+    to_plane, floor_only, fresh; the inputs themselves when there is no pair."""
+    groups = regroup_pairs(tested, kept, D2, camera, opposite, cut)
+    K = camera.shape[0]
+    n = 0
+    for k in range(K):
+        n += groups[k] > 0
+    seg = np.empty(n, np.int64)
+    if n == 0:
+        return groups, seg, to_plane, floor_only, seg
+    take = np.zeros(K, np.bool_)
+    ghost = np.zeros(K, np.bool_)
+    for k in to_plane:
+        take[k] = True
+    for k in floor_only:
+        ghost[k] = True
+    i = n_take = n_fresh = 0
+    for k in range(K):
+        if groups[k] > 0:
+            seg[i] = k
+            i += 1
+            take[k] = True
+            n_fresh += not ghost[k]
+        n_take += take[k]
+    plane = np.empty(n_take, np.int64)
+    fresh = np.empty(n_fresh, np.int64)
+    i = j = 0
+    for k in range(K):
+        if take[k]:
+            plane[i] = k
+            i += 1
+        if groups[k] > 0 and not ghost[k]:
+            fresh[j] = k
+            j += 1
+    n_floor = 0
+    for k in floor_only:
+        n_floor += groups[k] == 0
+    floor = np.empty(n_floor, np.int64)
+    i = 0
+    for k in floor_only:  # (floor_only: the ghost test's segments; a regrouped one may go to the plane too)
+        if groups[k] == 0:
+            floor[i] = k
+            i += 1
+    return groups, seg, plane, floor, fresh
+
+
 def warm_up() -> None:
     """Compile (or load) the kernel with the tracker's argument types."""
     m = np.array([[0, 1]], np.int64)
-    regroup_pairs(m, np.zeros((0, 2), np.int64), np.zeros((2, 2)), np.array([0, 1], np.int64), np.ones((2, 2), np.bool_), 0.3)
+    args = (m, np.zeros((0, 2), np.int64), np.zeros((2, 2)), np.array([0, 1], np.int64), np.ones((2, 2), np.bool_), 0.3)
+    regroup_pairs(*args)
+    regroup_step(*args, np.zeros(0, np.int64), np.zeros(0, np.int64))
