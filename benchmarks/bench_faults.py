@@ -14,7 +14,7 @@ apparatus, n_cam 3 and 4; other people are seen by all four cameras) get one fau
 
 Usage::
 
-    python benchmarks/bench_faults.py [--seconds 20] [--seeds 2] [--apparatus all] [--part sync|sync-only|knock|both]  (sync-only: no AED runs)
+    python benchmarks/bench_faults.py [--seconds 20] [--seeds 2 | --seed-list 3,4] [--apparatus all] [--part sync|sync-only|knock|both]  (sync-only: no AED runs)
 """
 
 from __future__ import annotations
@@ -47,6 +47,7 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--seconds", type=float, default=20)
     ap.add_argument("--seeds", type=int, default=2)
+    ap.add_argument("--seed-list", default=None, help="comma-separated seeds (held-out ones); replaces --seeds")
     ap.add_argument("--apparatus", default="all")
     ap.add_argument("--part", default="both")
     ap.add_argument("--degrees", type=float, nargs="+", default=[0.5, 1.0])
@@ -55,7 +56,7 @@ def main() -> None:
     sync_rows, knock_rows, clean_alarms, n_clean = [], [], 0, 0
     t0 = time.time()
     for app in apps:
-        for seed in range(a.seeds):
+        for seed in ([int(x) for x in a.seed_list.split(",")] if a.seed_list else range(a.seeds)):
             sims = simulate_n_cams(app, seed=seed, seconds=a.seconds, n_cams=(2, 3, 4))
             rng = np.random.default_rng(seed * 100 + len(app))
             for n, sim in sims.items():

@@ -7,12 +7,14 @@ boxes leave the epipolar lines of the others' (Eq. 1). For every camera pair and
 view's boxes ``d`` frames away (capped, so a box whose partner is missing, or matched to another
 person at a wrong shift, counts the same at every shift), each box weighted by how far it moves
 across its own epipolar line over a few frames: a person standing still, or moving along the
-line, looks the same at every shift and says nothing. The offsets (camera 0 the reference, 0)
-are the joint choice over ``+-search`` frames that minimises the sum of the pairs' costs, each
-pair's curve scaled by its median and weighted by its depth, plus a small cost per camera moved.
-Sub-frame: a parabola through the joint cost at the best offset and its neighbours. Confidence
-per camera: how much worse its best offset two or more frames away is, as a share of the cost's
-spread (0: a tie, the data cannot decide; 1: one offset stands out).
+line, looks the same at every shift and says nothing. Boxes cut by the image's edge are left
+out: their centre is not the person's (it lags or leads a person walking out or in). The offsets
+(camera 0 the reference, 0) are the joint choice over ``+-search`` frames that minimises the sum
+of the pairs' costs, each pair's curve scaled by its median and weighted by its depth, plus a
+small cost per camera moved. Sub-frame: a parabola through the joint cost at the best offset
+and its neighbours. Confidence per camera: how much worse its best offset two or more frames
+away is, as a share of the cost's spread (0: a tie, the data cannot decide; 1: one offset
+stands out).
 
 Convention (scene.yaml ``frame_offsets``): a camera with offset ``o`` shows at its frame ``f``
 what the reference shows at frame ``f - o``.
@@ -41,6 +43,7 @@ LAG = 2  # frames either side over which a box's motion is measured
 NEIGHBOUR = 0.5  # the nearest box within this share of the size is the same person
 MOTION_CAP = 0.5  # most a box weighs (its motion across the line, by size)
 LOW_CONFIDENCE = 0.05  # below this a camera's offset is reported as undecided
+BORDER = 2.0  # pixels: a box this near the image's edge is cut by it
 
 
 @dataclass(frozen=True)
@@ -97,6 +100,7 @@ def pair_costs(det: Detections, rig: Rig, shifts: np.ndarray, max_boxes: int = 1
     C = len(rig)
     if frames is not None:
         det = det.select(np.flatnonzero((det.frame >= frames[0]) & (det.frame <= frames[1])))
+    det = det.select(np.flatnonzero(~_at_border(det, rig)))
     if not len(det):
         return np.full((C, C, len(shifts)), np.nan), np.zeros((C, C, len(shifts))), 0
     f0 = int(det.frame.min())
@@ -133,6 +137,15 @@ def pair_costs(det: Detections, rig: Rig, shifts: np.ndarray, max_boxes: int = 1
         with np.errstate(invalid="ignore", divide="ignore"):
             cost[i, j] = np.where(den > 0, num / den, np.nan)
     return cost, count, int((has.sum(axis=0) >= 2).sum())
+
+
+def _at_border(det: Detections, rig: Rig) -> np.ndarray:
+    """(N,) boxes that touch the image's edge (raw pixels). The border cuts them: their centre is
+    not the person's but moves at about half its speed as the person walks in or out, as if that
+    view ran early or late, and leans the pair's curve by a frame or more."""
+    size = np.array([cam.size for cam in rig], np.float64)[det.camera]
+    lo, hi = det.box[:, :2] - det.box[:, 2:] / 2, det.box[:, :2] + det.box[:, 2:] / 2
+    return ((lo <= BORDER) | (hi >= size - BORDER)).any(axis=1)
 
 
 def _across_motion(X: np.ndarray, B: np.ndarray, epipole: np.ndarray) -> np.ndarray:
