@@ -191,14 +191,13 @@ def test_on_by_default_and_a_clean_routines_outputs_unchanged(sim):
     assert {k: v for k, v in on.summary.items() if k not in drop} == {k: v for k, v in off.summary.items() if k not in drop}
 
 
-def test_a_shift_that_comes_and_goes_is_not_reported_a_sustained_knock_is(sim, monkeypatch):
-    """A named camera is reported only if its most moved own key still holds over the next second.
-    cam3's boxes turned by 0.7 deg for one second (frames 300..329) and back -- what a wrong
-    association of its boxes looks like to the residuals: a shift of its keys that comes and goes
-    -- are named by the fit (without the rule: an alarm) but not reported; the same turn kept from
-    frame 300 on is reported, naming cam3."""
-    from gymtrack.tracking import drift
-
+def test_a_shift_that_comes_and_goes_is_not_reported_a_sustained_knock_is(sim):
+    """A named camera is reported only if its turn still explains its keys over the next seconds
+    (:data:`gymtrack.tracking.drift.HOLD`; that the rule is needed is the test of a 1 deg turn that
+    goes back after 1.5 s). cam3's boxes turned by 0.7 deg for one second (frames 300..329) and
+    back -- what a wrong association of its boxes looks like to the residuals: a shift of its keys
+    that comes and goes -- are not reported; the same turn kept from frame 300 on is reported,
+    naming cam3."""
     turn = knock_rotation(0.7, seed=4)
     kept = knock_camera(sim.detections, sim.rig[3], 3, 300, turn)
     back = knock_camera(kept, sim.rig[3], 3, 330, turn.T)
@@ -208,6 +207,3 @@ def test_a_shift_that_comes_and_goes_is_not_reported_a_sustained_knock_is(sim, m
     ev = res.summary["camera_moved"]
     assert [e["camera"] for e in ev] == ["cam3"] and 270 <= ev[0]["start_frame"] <= 330
     assert ev[0]["detected_frame"] <= 300 + 5 * sim.scene.fps and 0.4 <= ev[0]["degrees"] <= 1.0
-    monkeypatch.setattr(drift, "HOLD", -np.inf)  # without the rule the passing shift is reported
-    res, _ = _track(sim, back, recalibrate=False)
-    assert [e["camera"] for e in res.summary["camera_moved"]] == ["cam3"]
