@@ -6,6 +6,7 @@
 * :mod:`.clustering`      Eq. 1-2 distances and Algorithm 1 (III-B)
 * :mod:`.reconstruct`     triangulation (Eq. 3), opposite views, outliers (Eq. 4) (III-B/C)
 * :mod:`.plane_fallback`  ray-plane candidates and their matching (Eq. 5-9) (III-C)
+* :mod:`.cascade`         a window's cascaded association: triangulation, else the plane (III-C)
 * :mod:`.linking`         cross-window linking (Eq. 10-12), the :class:`~.linking.WindowLinker` (III-B)
 * :mod:`.records`         boxes and window points held until final, Eq. 12 at finalisation
 * :mod:`.identify`        target identification (Eq. 13) and the back-fill (III-D)

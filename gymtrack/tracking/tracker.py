@@ -12,7 +12,8 @@ It wires the stages; the stateful ones are objects of their own modules:
 3. cross-view clustering (III-B): Eq. 2 distances and Algorithm 1 (:mod:`.clustering`);
 4. triangulation (III-B, Eq. 3) of clusters of >= 2 views that are not just an opposite pair
    (judged at the apparatus), and the outlier test (Eq. 4) (:mod:`.reconstruct`);
-5. the cascade (III-C): the rest go to the vertical plane, Eq. 5-9 (:mod:`.plane_fallback`);
+5. the cascade (III-C): the rest go to the vertical plane, Eq. 5-9 (:mod:`.plane_fallback`;
+   stages 4-5 of a window: :mod:`.cascade`);
 6. cross-window linking (III-B, Eq. 10-11) (:class:`~.linking.WindowLinker`), carrying the 2D
    boxes along; the windows' points wait in :class:`~.records.WindowRecords` and are merged
    (Eq. 12) when final;
@@ -68,15 +69,14 @@ from ._kernels import warm_up
 from ._kernels.single_view import frame_rows_check
 from .drift import DriftMonitor
 from .clustering import complete_linkage, tracklet_distances
-from .floor import continuation_only, drop_floor_ghosts, floor_split
+from .floor import continuation_only
 from .exclusion import suppress_duplicates
 from .fusion import PlaneRayFusion
 from .linking import WindowLinker
-from .plane_fallback import plane_split
+from .cascade import plane_stage, triangulation_stage
 from .plane_fit import REFINE_EVERY
 from .plane_refine import PlaneRefiner
-from .regroup import gymnast_only, pairs_only, regroup
-from .reconstruct import cluster_members, fallback_segments, opposite_clusters, outliers, outliers_at_mean, triangulate_clusters
+from .reconstruct import outliers, outliers_at_mean
 from .single_view import IoUTracker
 from .single_view_motion import MotionIoUTracker, needs_motion
 from .handover import TargetHandover
@@ -273,8 +273,8 @@ class Tracker:
         fallback, link; then the frames before the next window's start are final."""
         segs = self._timed("windows", self._cut, start)
         labels, D2 = self._timed("clustering", self._cluster, segs)
-        tri, to_plane = self._timed("triangulation", self._triangulate, segs, labels, D2)
-        plane, floor = self._timed("plane", self._plane_fallback, segs, to_plane, D2)
+        tri, to_plane = self._timed("triangulation", triangulation_stage, self, segs, labels, D2)  # (.cascade)
+        plane, floor = self._timed("plane", plane_stage, self, segs, to_plane, D2)
         self._timed("linking", self._link, start, segs, tri, plane, floor)
         if self.refiner is not None and self.refiner.due():
             self._timed("plane", self._refine_plane, start)
@@ -320,82 +320,6 @@ class Tracker:
             return np.unique(segs.track2d // self.n_cameras, return_inverse=True)[1], None
         D2 = tracklet_distances(segs, self.F)
         return complete_linkage(D2, self.params.cluster_2d), D2
-
-    def _triangulate(self, segs: WindowTracklets, labels: np.ndarray | None, D2: np.ndarray | None = None
-                     ) -> tuple[WindowTracklets3D | None, np.ndarray]:
-        """Stage 4: triangulation of multi-view clusters, outliers dropped. Returns the 3D
-        tracklets (None when nothing was clustered) and the segments for the plane (sorted)."""
-        p, C = self.params, self.n_cameras
-        if labels is None:
-            return None, np.arange(len(segs))
-        fused = None
-        self._regrouped, self._groups, self._fresh = np.zeros(0, np.int64), None, np.zeros(0, np.int64)
-        to_plane = self._floor_only = np.zeros(0, np.int64)
-        if not len(segs):
-            return None, to_plane
-        members = cluster_members(labels, segs.camera, C)
-        multi = (members >= 0).sum(axis=1) >= 2
-        if self.method.plane == "rest":  # the cascade: single tracklets and opposite pairs go to the plane
-            fallback = ~multi | opposite_clusters(members, self.opposite)
-            if self.fusion is not None:  # two-view clusters fused with the plane (.fusion)
-                fused, fallback, multi = self.fusion.step(segs, members, fallback, multi)
-            to_plane = fallback_segments(members, fallback)  # (sorted)
-            multi &= ~fallback
-        else:
-            self.counts["segments_dropped_single"] += int(np.count_nonzero(~multi))
-        tri = triangulate_clusters(segs, members[multi], self.P)
-        self.venue.observe(segs.start, segs.box, segs.observed, members[multi])
-        tri = tri if fused is None else WindowTracklets3D.concat([tri, fused])
-        tested = tri.members if self.method.regroup and D2 is not None else None
-        if self.method.ghost_test:  # Eq. 4, then the floor's ghost test; a ghost's segments may go to the floor only
-            if self._space_mean is None:  # (the paper's Eq. 4 first; by the mean it runs inside the ghost test's call)
-                tri = self._drop_outliers(tri)
-            tri, self._floor_only = drop_floor_ghosts(tri, segs, self.rig.arrays, self.plane_arrays, p, self.scene, self.counts,
-                                                      (self.linker.prev_2d, self.linker.prev_owner),
-                                                      None if self._space_mean is None else (self.space, p.max_speed))
-        else:
-            tri = self._drop_outliers(tri)
-        if tested is not None:  # a dropped cluster's opposite pairs on to the plane (.regroup)
-            self._regrouped, self._groups, to_plane, self._floor_only, self._fresh = regroup(
-                tested, tri.members, D2, segs.camera, self.opposite, p.cluster_2d, to_plane, self._floor_only, self.counts)
-        if self.refiner is not None:  # the plane's points: what passed the tests, and the opposite pairs
-            self.refiner.observe(segs, tri, members[fallback & ((members >= 0).sum(axis=1) >= 2)])
-        self.counts["clusters_triangulated"] += len(tri)
-        return tri, to_plane
-
-    def _drop_outliers(self, tr: WindowTracklets3D) -> WindowTracklets3D:
-        """Eq. 4 (the recipe's space test) in ``S_track``; the outliers counted and left out."""
-        bad = self._outliers(tr.xyz, tr.valid, self.space, self.params.max_speed)
-        if bad.any():
-            self.counts["tracklets_outliers"] += int(bad.sum())
-            tr = tr.subset(~bad)
-        return tr
-
-    def _plane_fallback(self, segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | None
-                        ) -> tuple[WindowTracklets3D | None, WindowTracklets3D | None]:
-        """Stage 5: the segments ``to_plane`` on the vertical plane (Eq. 5-9), outliers dropped;
-        ``members`` index ``segs``. None when nothing is left. With the floor hypothesis: people on
-        the floor first (:func:`.floor.floor_split`), returned second."""
-        p = self.params
-        floor = None
-        if self.method.floor and len(to_plane) + len(self._floor_only):
-            floor, to_plane = floor_split(segs, to_plane, D2, self.rig.arrays, p, self.scene, self.association == "oracle",
-                                          self.counts, self._floor_only, self.method.outliers_at_mean)
-        if floor is not None and len(self._fresh):  # a new regrouped segment on the floor only with its partner
-            floor = pairs_only(floor, self._fresh, self._groups, self.counts)
-        elif len(self._floor_only) and not self.method.floor:  # the ghosts' segments, without a floor to take them
-            self.counts["segments_dropped_ghost"] += len(self._floor_only)
-        if not len(to_plane):
-            return None, floor
-        # Eq. 2's separations, the one-view continuation, Eq. 5-9, Eq. 4, one view only inside S_perf
-        pl = plane_split(segs, to_plane, D2, self.rig.arrays, self.stage_planes, p, self.association == "oracle",
-                         self.linker.prev_2d, self.linker.prev_seen, self.space, self._solo_space, self.counts,
-                         self.method.outliers_at_mean, self._groups)
-        if pl is not None and len(self._regrouped):  # only a gymnast's regrouped pair is kept (.regroup)
-            pl = gymnast_only(pl, self._regrouped, self.perf_space, self.scene.target, self.counts)
-        if pl is not None and self.fusion is not None:  # two-view plane tracklets fused with the plane (.fusion)
-            pl = self._drop_outliers(self.fusion.refine(segs, pl))  # (Eq. 4 on the fused points too)
-        return pl, floor
 
     def _link(self, start: int, segs: WindowTracklets, tri: WindowTracklets3D | None,
               plane: WindowTracklets3D | None, floor: WindowTracklets3D | None = None) -> None:
