@@ -96,7 +96,8 @@ def track(
                                        "warn when one is knocked (and when, by how many degrees) or out of sync (a few "
                                        "per cent of the tracking speed; a clean routine's outputs are the same either way)"),
     recalibrate: bool = typer.Option(True, "--recalibrate/--no-recalibrate", help="with --watch-cameras: re-estimate a "
-                                     "knocked camera's rotation from the other views and apply it from then on"),
+                                     "knocked camera's rotation from the other views and track the routine again with it "
+                                     "applied from the frame the camera moved"),
     wait: float = wait_option(),
 ) -> None:
     """Track a routine: 3D tracks, per-view boxes and the target gymnast (paper Section III)."""

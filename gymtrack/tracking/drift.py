@@ -161,6 +161,7 @@ class DriftMonitor:
         self.sums = np.zeros((C * Np, 3))  # sync regression per camera x pair: n, sum v.v, sum v.r
         self.events: list[dict] = []
         self.turns: dict[int, tuple[int, np.ndarray]] = {}  # camera -> (from frame, rotation now vs calibrated)
+        self.knocks: list[tuple[int, int, np.ndarray]] = []  # each re-estimated turn: (camera, start frame, rotation)
         self.first: int | None = None
         self.n_hold = max(2, int(round(HOLD_SECONDS * fps / every)))
         # (camera, its first moved sample's frame, start, the frame named at, the keys' shifts its turn
@@ -357,6 +358,7 @@ class DriftMonitor:
         if self.recalibrate:
             prev = self.turns.get(c, (0, np.eye(3)))[1]
             self.turns[c] = (int(frame) + 1, R @ prev)
+            self.knocks.append((c, started, R))
             event |= {"recalibrated_from_frame": int(frame) + 1, "rotation_degrees": round(_degrees(R @ prev), 2)}
         self.events.append(event)
         warnings.warn(f"camera {event['camera']} moved by about {event['degrees']} deg from frame {started} "

@@ -4,16 +4,24 @@
 checked as in streaming use) and concatenates what became final; :func:`track_routine` loads a
 routine folder first. With ``planes: auto`` in the scene, the plane is fitted from a first
 triangulation pass before tracking (:func:`~.plane_fit.resolve_auto_planes`).
+
+Beyond the paper: a knocked camera (:mod:`.drift`) is found seconds after it moved, and a stream
+can only correct its boxes from then on. Offline, the whole routine is at hand: once a turn is
+re-estimated, the routine is tracked again with each knocked camera's first turn applied from the
+frame its move started (its later turns found as the stream finds them), so the frames between
+the knock and its detection are tracked with the corrected camera too. A clean routine is tracked once.
 """
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
 from ..detections import Detections
+from ..errors import GymtrackWarning
 from ..geometry.camera import Rig
 from ..scene import Scene
 from .plane_fit import resolve_auto_planes
@@ -41,11 +49,45 @@ def track_detections(
     every ~100 frames.
 
     watch_cameras: watch the cameras for a knock or a desync (:mod:`.drift`); recalibrate: then a
-    knocked camera's rotation re-estimated and applied from then on.
+    knocked camera's rotation re-estimated and the routine tracked again with it applied from
+    the frame its move started (module docstring).
     """
-    tracker = Tracker(rig, resolve_auto_planes(rig, scene, detections, track_detections), mode=mode, association=association,
-                      watch_cameras=watch_cameras, recalibrate=recalibrate)
+    scene = resolve_auto_planes(rig, scene, detections, track_detections)
     det = detections.sorted()
+    if not (watch_cameras and recalibrate):
+        return _track(rig, scene, det, mode, association, progress, watch_cameras, recalibrate)[0]
+    with warnings.catch_warnings(record=True) as said:  # (passed on below, the second pass's new ones after)
+        warnings.simplefilter("always")
+        result, venue = _track(rig, scene, det, mode, association, progress, True, True)
+    first: dict[int, tuple[int, object]] = {}
+    for c, start, R in venue.knocks:  # each knocked camera's first turn, from the frame its move started
+        first.setdefault(c, (start, R))
+    if first:
+        known, named = [], set()
+        for e in venue.events:  # the events that found those turns, now applied from the start
+            c = rig.names.index(e["camera"])
+            if "recalibrated_from_frame" in e and c not in named:
+                named.add(c)
+                known.append({**e, "recalibrated_from_frame": first[c][0]})
+        with warnings.catch_warnings(record=True) as again:
+            warnings.simplefilter("always")
+            result, _ = _track(rig, scene, det, mode, association, None, True, True, first, known)
+        told = {(str(w.message), w.category) for w in said}
+        said += [w for w in again if (str(w.message), w.category) not in told]
+    for w in said:
+        warnings.warn(w.message, w.category, stacklevel=2)
+    for c, (start, _) in first.items():
+        warnings.warn(f"camera {rig.names[c]}: the frames from {start} on tracked again with its re-estimated "
+                      f"rotation", GymtrackWarning, stacklevel=2)
+    return result
+
+
+def _track(rig, scene, det, mode, association, progress, watch_cameras, recalibrate, turns=None, events=()):
+    """One pass of the :class:`Tracker` over the sorted boxes ``det``: (TrackResult, its drift monitor).
+    turns: {camera: (from frame, rotation)} applied from the start, with the ``events`` that found them."""
+    tracker = Tracker(rig, scene, mode=mode, association=association, watch_cameras=watch_cameras, recalibrate=recalibrate)
+    if turns:
+        tracker.venue.turns, tracker.venue.events = dict(turns), list(events)
     outs = []
     if len(det):
         frames, first = np.unique(det.frame, return_index=True)
@@ -61,7 +103,8 @@ def track_detections(
             progress(total, total)
     outs.append(tracker.finish())
     out = TrackerOutput.concat(outs, rig.names)
-    return TrackResult(out.tracks, out.boxes, out.target, out.target_boxes, rig.names, tracker.mode, tracker.summary())
+    return (TrackResult(out.tracks, out.boxes, out.target, out.target_boxes, rig.names, tracker.mode, tracker.summary()),
+            tracker.venue)
 
 
 def track_routine(
