@@ -7,7 +7,8 @@ over ``+-(2 search + 8)`` frames; moving camera ``c`` by ``d`` frames moves the 
 by ``d`` (the same boxes at the same shifts; only the few boxes pushed before frame 1 differ), so
 every camera x offset in +-1..+-8, and the clean routine, is solved
 (:func:`gymtrack.tracking.sync.offsets_from_costs`) at the cost of one estimate per routine.
-Exact: that offset for that camera and 0 for the others; clean: 0 for all.
+Exact: that offset for that camera and 0 for the others; clean: 0 for all. Silent: a wrong offset
+reported with confidence (not undecided).
 ``benchmarks/bench_faults.py --part sync-only`` runs the full estimate on one seeded case each.
 
 Usage::
@@ -25,7 +26,7 @@ import numpy as np
 
 from gymtrack.apparatus import APPARATUS_NAMES
 from gymtrack.simulate.routine import simulate_n_cams
-from gymtrack.tracking.sync import offsets_from_costs, pair_costs
+from gymtrack.tracking.sync import LOW_CONFIDENCE, offsets_from_costs, pair_costs
 
 SEARCH, MOST = 10, 8
 
@@ -42,8 +43,11 @@ def cases(cost: np.ndarray, n_frames: int) -> list[dict]:
         res = offsets_from_costs(k, tuple(f"cam{c}" for c in range(C)), SEARCH, n_frames)
         want = np.zeros(C, int)
         want[cam] = d
+        bad = res.offsets != want
         out.append({"cam": cam, "offset": d, "found": res.offsets.tolist(), "exact": bool(np.array_equal(res.offsets, want)),
-                    "confidence": np.round(res.confidence, 2).tolist()})
+                    "confidence": np.round(res.confidence, 2).tolist(),
+                    "flagged": bool((res.confidence[1:] < LOW_CONFIDENCE).any()),
+                    "silent": bool(bad.any() and (res.confidence[bad] >= LOW_CONFIDENCE).all())})
     return out
 
 
@@ -82,6 +86,10 @@ def main() -> None:
     print("n_cam 3-4 by |offset|:", {o: share([r for r in fault if abs(r['offset']) == o and r['n_cam'] > 2])
                                      for o in range(1, MOST + 1)})
     print("n_cam 3-4:", share([r for r in fault if r["n_cam"] > 2]))
+    for n in (3, 4):  # a wrong offset reported as undecided is not silent
+        f = [r for r in fault if r["n_cam"] == n]
+        print(f"n_cam {n}: wrong and reported confident {sum(r['silent'] for r in f)}/{len(f)}; "
+              f"exact but a camera undecided {sum(r['exact'] and r['flagged'] for r in f)}/{len(f)}")
     if a.json:
         with open(a.json, "w") as f:
             json.dump(rows, f)

@@ -44,3 +44,19 @@ def test_cases_move_each_cameras_curves_by_its_offset():
     off = bench_sync.cases(cost, 600)
     assert all(r["found"][2] == (r["offset"] if r["cam"] == 2 else 0) + 1 for r in off)
     assert not any(r["exact"] for r in off)
+
+
+def test_a_wrong_offset_of_an_undecided_camera_is_not_silent():
+    """Camera 2's pairs are flat (no shift better than another): it stays at 0 whatever its true
+    offset, each such case is wrong but flagged (undecided), never silent; camera 1's cases are
+    exact."""
+    S, M = bench_sync.SEARCH, bench_sync.MOST
+    shifts = np.arange(-2 * S - M, 2 * S + M + 1)
+    cost = np.full((3, 3, len(shifts)), np.nan)
+    cost[0, 1] = 1.0 + np.abs(shifts)
+    cost[0, 2] = cost[1, 2] = 5.0
+    rows = bench_sync.cases(cost, 600)
+    cam2 = [r for r in rows if r["cam"] == 2]
+    assert len(cam2) == 2 * M and all(r["found"][2] == 0 and not r["exact"] for r in cam2)
+    assert all(r["flagged"] and not r["silent"] for r in cam2)
+    assert all(r["exact"] and not r["silent"] for r in rows if r["cam"] == 1)

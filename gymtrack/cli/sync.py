@@ -33,7 +33,7 @@ def sync(
     from gymtrack.errors import GymtrackWarning, InputError
     from gymtrack.formats.routine import load_routine
     from gymtrack.formats.scene import save_scene
-    from gymtrack.tracking.sync import estimate_offsets
+    from gymtrack.tracking.sync import LOW_CONFIDENCE, estimate_offsets
 
     r = load_routine(routine)
     if len(r.rig) < 2:
@@ -48,7 +48,7 @@ def sync(
         for n, sub, c in zip(r.rig.names, res.offsets_subframe, res.confidence):
             console.print(f"  {n}: {total[n]:+d} frames (sub-frame {sub + before.get(n, 0):+.2f}), confidence {c:.2f}")
     for n in res.undecided():
-        warnings.warn(f"sync: the data cannot decide camera {n}'s offset (confidence below 0.05); "
+        warnings.warn(f"sync: the data cannot decide camera {n}'s offset (confidence below {LOW_CONFIDENCE}); "
                       f"check that it sees the moving gymnast", GymtrackWarning)
     if write:
         offsets = {n: o for n, o in total.items() if o != 0}
