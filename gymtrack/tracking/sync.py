@@ -42,7 +42,7 @@ PRIOR = 0.03  # the cost of moving a camera, as a share of a pair's mean cost de
 LAG = 2  # frames either side over which a box's motion is measured
 NEIGHBOUR = 0.5  # the nearest box within this share of the size is the same person
 MOTION_CAP = 0.5  # most a box weighs (its motion across the line, by size)
-LOW_CONFIDENCE = 0.1  # below this a camera's offset is reported as undecided
+LOW_CONFIDENCE = 0.05  # below this a camera's offset is reported as undecided
 BORDER = 2.0  # pixels: a box this near the image's edge is cut by it
 
 
