@@ -357,3 +357,20 @@ def test_a_coach_lift_measured_late_is_no_flight_where_a_thrown_body_is():
     fl, lifted = find_flights(frame, sup, 30.0, thrown[:, 2], thrown[:, 2], sd, thrown, box_xy=thrown[:, :2],
                                 somersault=np.zeros(len(com)))
     assert fl == [(a, b)] and lifted == []
+
+
+def test_a_quarter_second_contact_at_the_apex_is_bridged_past_blips_a_hang_is_not():
+    """A jump to the parallel bars' support: the hands pass the rails near the apex, where the body
+    rises slowly, and the wrists read within reach of a rail for 7 rows (0.23 s), with a 2-row
+    airborne blip among them; the centre of mass stays on its parabola: one flight. The same rows
+    with the body stopped there (a hang: the bar holds it, its height constant) stay a contact."""
+    from gymtrack.analysis.flights import bridge_contacts
+
+    frame, sup, z, sd = _heights(n1=12, gap=7, n2=6, seed=2)
+    sup[14:16] = 0  # the blip: 12..13 contact, 14..15 airborne, 16..18 contact
+    out, n = bridge_contacts(frame, sup, 30.0, z, sd)
+    assert n == 1 and (out == 0).all()
+    held = z.copy()
+    held[12:] = z[12] + np.random.default_rng(3).normal(0, 0.01, len(z) - 12)
+    held[19:] -= 9.81 / 2 * (np.arange(len(z) - 19) / 30.0) ** 2  # released again after the hang
+    assert bridge_contacts(frame, sup, 30.0, held, sd)[1] == 0
