@@ -374,3 +374,18 @@ def test_a_quarter_second_contact_at_the_apex_is_bridged_past_blips_a_hang_is_no
     held[12:] = z[12] + np.random.default_rng(3).normal(0, 0.01, len(z) - 12)
     held[19:] -= 9.81 / 2 * (np.arange(len(z) - 19) / 30.0) ** 2  # released again after the hang
     assert bridge_contacts(frame, sup, 30.0, held, sd)[1] == 0
+
+
+def test_a_pivot_and_a_pivot_back_are_two_turns():
+    """A half turn one way (180 -> 0 deg over 25 rows), a pause of 4 rows, a half turn back (0 ->
+    180) on the beam, upright and in place: two turns of 180 deg with opposite directions (the
+    rows between them, closer than a turn's 0.2 s pause, joined them into one of 0 deg before)."""
+    from gymtrack.analysis.elements import turns
+
+    smooth = lambda n: 0.5 - 0.5 * np.cos(np.linspace(0, np.pi, n))  # noqa: E731
+    deg = np.concatenate([np.full(10, 180.0), 180 - 180 * smooth(25), np.zeros(4), 180 * smooth(25), np.full(10, 180.0)])
+    M = len(deg)
+    frame = np.arange(M)
+    got = turns(frame, np.radians(deg), np.full(M, 2, np.int8), np.zeros(M), np.zeros((M, 3)), 30.0)
+    assert [(t["degrees"], t["direction"]) for t in got] == [(180.0, -1), (180.0, 1)]
+    assert got[0]["end_frame"] < got[1]["start_frame"]

@@ -174,8 +174,10 @@ def turns(frame: np.ndarray, heading: np.ndarray, support: np.ndarray, incl: np.
             continue
         hd = gaussian_filter1d(hd, TURN_SMOOTH_S * fps, mode="nearest")  # a turn takes 0.4 s or more
         rate = np.gradient(hd) * fps
-        moving = np.abs(rate) > TURN_RATE_DEG_S
-        for p, q in merge(runs(moving, frame[a:b + 1]), int(round(0.2 * fps))):
+        gap = int(round(0.2 * fps))  # one turn's pauses; a turn back the other way is another turn
+        spans = sorted(merge(runs(rate > TURN_RATE_DEG_S, frame[a:b + 1]), gap)
+                       + merge(runs(rate < -TURN_RATE_DEG_S, frame[a:b + 1]), gap))
+        for p, q in spans:
             delta = hd[q] - hd[p]
             if abs(delta) < TURN_MIN_DEG:
                 continue
