@@ -389,3 +389,17 @@ def test_a_pivot_and_a_pivot_back_are_two_turns():
     got = turns(frame, np.radians(deg), np.full(M, 2, np.int8), np.zeros(M), np.zeros((M, 3)), 30.0)
     assert [(t["degrees"], t["direction"]) for t in got] == [(180.0, -1), (180.0, 1)]
     assert got[0]["end_frame"] < got[1]["start_frame"]
+
+
+def test_a_quarter_turns_slow_ends_count():
+    """An 86 deg quarter turn (the simulator's floor turn before a mount, true skeleton: 85.3) whose
+    heading speeds up and slows down smoothly: the rows turning faster than 30 deg/s cover only about
+    78 deg of it, so the turn is measured from rest to rest (the slow ends of the same turn) and
+    read as 90 deg, as the ground truth counts it."""
+    from gymtrack.analysis.elements import turns
+
+    smooth = 0.5 - 0.5 * np.cos(np.linspace(0, np.pi, 13))
+    deg = np.concatenate([np.full(10, -185.0), -185 - 86 * smooth, np.full(12, -271.0)])
+    M = len(deg)
+    got = turns(np.arange(M), np.radians(deg), np.full(M, 1, np.int8), np.zeros(M), np.zeros((M, 3)), 30.0)
+    assert [(t["degrees"], t["direction"]) for t in got] == [(90.0, -1)] and abs(got[0]["turn_deg"] + 86) < 2

@@ -178,7 +178,13 @@ def turns(frame: np.ndarray, heading: np.ndarray, support: np.ndarray, incl: np.
         spans = sorted(merge(runs(rate > TURN_RATE_DEG_S, frame[a:b + 1]), gap)
                        + merge(runs(rate < -TURN_RATE_DEG_S, frame[a:b + 1]), gap))
         for p, q in spans:
-            delta = hd[q] - hd[p]
+            sign = np.sign(hd[q] - hd[p])
+            p0, q1 = p, q  # the slow ends of the same turn (up to 0.2 s): a turn starts and ends at rest
+            while p0 > max(0, p - gap) and sign * rate[p0 - 1] > TURN_RATE_DEG_S / 10:
+                p0 -= 1
+            while q1 < min(len(hd) - 1, q + gap) and sign * rate[q1 + 1] > TURN_RATE_DEG_S / 10:
+                q1 += 1
+            delta = hd[q1] - hd[p0]
             if abs(delta) < TURN_MIN_DEG:
                 continue
             after = np.flatnonzero((frame >= frame[a + p]) & (frame <= frame[a + q] + TURN_AFTER_S * fps))
