@@ -56,9 +56,7 @@ def track_detections(
     det = detections.sorted()
     if not (watch_cameras and recalibrate):
         return _track(rig, scene, det, mode, association, progress, watch_cameras, recalibrate)[0]
-    with warnings.catch_warnings(record=True) as said:  # (passed on below, the second pass's new ones after)
-        warnings.simplefilter("always")
-        result, venue = _track(rig, scene, det, mode, association, progress, True, True)
+    said, (result, venue) = _recorded(_track, rig, scene, det, mode, association, progress, True, True)
     first: dict[int, tuple[int, object]] = {}
     for c, start, R in venue.knocks:  # each knocked camera's first turn, from the frame its move started
         first.setdefault(c, (start, R))
@@ -69,9 +67,7 @@ def track_detections(
             if "recalibrated_from_frame" in e and c not in named:
                 named.add(c)
                 known.append({**e, "recalibrated_from_frame": first[c][0]})
-        with warnings.catch_warnings(record=True) as again:
-            warnings.simplefilter("always")
-            result, _ = _track(rig, scene, det, mode, association, None, True, True, first, known)
+        again, (result, _) = _recorded(_track, rig, scene, det, mode, association, None, True, True, first, known)
         told = {(str(w.message), w.category) for w in said}
         said += [w for w in again if (str(w.message), w.category) not in told]
     for w in said:
@@ -80,6 +76,14 @@ def track_detections(
         warnings.warn(f"camera {rig.names[c]}: the frames from {start} on tracked again with its re-estimated "
                       f"rotation", GymtrackWarning, stacklevel=2)
     return result
+
+
+def _recorded(fn, *args):
+    """(the warnings ``fn(*args)`` raised, recorded to be passed on once, its result)."""
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always")
+        out = fn(*args)
+    return said, out
 
 
 def _track(rig, scene, det, mode, association, progress, watch_cameras, recalibrate, turns=None, events=()):

@@ -50,8 +50,8 @@ def regroup_pairs(tested: np.ndarray, kept: np.ndarray, D2: np.ndarray, camera: 
     A pair: two dropped segments of opposite views, each the other's nearest opposite-view
     segment of the whole window by Eq. 2, below ``cut``. Returns the pairs' segments (sorted)
     and (K,) group labels for the plane stage (0: any segment; a pair: its own label), None when
-    there is no pair. One compiled call (:func:`._kernels.regroup.regroup_pairs`; it runs on
-    every window)."""
+    there is no pair. One compiled call (:func:`._kernels.regroup.regroup_pairs`); the tracker's
+    window step calls :func:`regroup`, whose kernel runs the same pairing."""
     c = np.ascontiguousarray
     groups = kernels.regroup_pairs(c(tested, np.int64), c(kept, np.int64), c(D2, np.float64), c(camera, np.int64),
                                    c(opposite, np.bool_), float(cut))
