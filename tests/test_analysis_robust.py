@@ -403,3 +403,20 @@ def test_a_quarter_turns_slow_ends_count():
     M = len(deg)
     got = turns(np.arange(M), np.radians(deg), np.full(M, 1, np.int8), np.zeros(M), np.zeros((M, 3)), 30.0)
     assert [(t["degrees"], t["direction"]) for t in got] == [(90.0, -1)] and abs(got[0]["turn_deg"] + 86) < 2
+
+
+def test_a_turn_the_data_end_on_is_not_read():
+    """A quarter turn with 12 still rows after it is read; the same turn with 4 rows after it (the
+    recording stops 0.13 s after it) is not: whether the body stayed on the spot (0.3 s after a
+    turn) cannot be told, and a gymnast turning to walk off must not read as a turn element."""
+    from gymtrack.analysis.elements import turns
+
+    smooth = 0.5 - 0.5 * np.cos(np.linspace(0, np.pi, 13))
+    deg = np.concatenate([np.full(10, 0.0), 90 * smooth, np.full(12, 90.0)])
+
+    def read(d):
+        M = len(d)
+        return turns(np.arange(M), np.radians(d), np.full(M, 1, np.int8), np.zeros(M), np.zeros((M, 3)), 30.0)
+
+    assert [t["degrees"] for t in read(deg)] == [90.0]
+    assert read(deg[:-8]) == []

@@ -242,3 +242,13 @@ def test_pommel_dismount_counts_from_the_handstand(seed):
     assert body_angles(kp)["inclination"][pre - 1] >= 150  # the handstand
     # the pitch turned between the handstand and the stand: half a revolution (the simulator's own state)
     assert abs(motion.pitch[post - 1] - motion.pitch[pre - 1]) == pytest.approx(np.pi, abs=np.radians(20))
+
+
+def test_two_half_pivots_back_to_back_are_one_full_turn():
+    """Turn records that follow each other the same way with no frame of rest are one turn; a rest
+    frame between, or a turn back, keeps them apart (the analysis reads turns from rest to rest)."""
+    from gymtrack.simulate.elements import _joined_turns
+
+    rec = lambda s, e, d: {"kind": "turn", "start": s, "end": e, "degrees": d}  # noqa: E731
+    got = _joined_turns([rec(40, 69, 180.0), rec(10, 39, 180.0), rec(71, 90, 180.0), rec(91, 110, -180.0)])
+    assert [(r["start"], r["end"], r["degrees"]) for r in got] == [(10, 69, 360.0), (71, 90, 180.0), (91, 110, -180.0)]

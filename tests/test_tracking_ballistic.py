@@ -6,7 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from gymtrack.analysis.joints import USED
+from gymtrack.analysis.kinematics import centre_of_mass
 from gymtrack.modes import RECIPES, recipe
+from gymtrack.simulate.body import COCO_JOINTS
 from gymtrack.simulate import simulate_routine
 from gymtrack.tracking.ballistic import FIT_FRAMES, G, fit_flight
 from gymtrack.tracking.offline import track_detections
@@ -23,10 +26,16 @@ def vault():
     return sim, int(starts[k]), int(ends[k])
 
 
+def _com(sim) -> np.ndarray:
+    """(T, 3) the target's centre of mass (the analysis' de Leva reading of its true joints)."""
+    return centre_of_mass(sim.keypoints[0][:, [COCO_JOINTS.index(n) for n in USED]])[0]
+
+
 def test_fit_predicts_the_simulated_flight_and_its_landing(vault):
+    """The parabola under g predicts what gravity moves: the centre of mass."""
     sim, a, b = vault
     assert b - a + 1 >= FIT_FRAMES + 8  # a flight long enough to predict
-    c, fr = sim.centre[0], sim.frames
+    c, fr = _com(sim), sim.frames
     rng = np.random.default_rng(0)
     i = np.arange(a, a + FIT_FRAMES)
     noisy = c[i] + rng.normal(0, 0.02, (len(i), 3))  # the tracker's centre noise
@@ -67,12 +76,15 @@ def test_a_detector_gap_in_flight_keeps_the_target(vault):
     det = sim.detections.select(~drop)
     truth = dict(zip(sim.frames.tolist(), sim.centre[0]))
 
-    def covered(method):
+    def covered(method, within):
         t = track_detections(sim.rig, sim.scene, det, mode=method).target
-        near = [f for f, p in zip(t.frame.tolist(), t.xyz) if f in truth and np.linalg.norm(p - truth[f]) < 0.35]
+        near = [f for f, p in zip(t.frame.tolist(), t.xyz) if f in truth and np.linalg.norm(p - truth[f]) < within]
         return np.isin(gap, near).mean(), np.isin(sim.frames[b + 1: b + 31], near).mean()
 
-    with_, after = covered(RECIPES["cascade+"])
-    without, _ = covered(recipe("cascade+", without=["ballistic"]))
-    assert with_ >= 0.8 and with_ > without + 0.3, (with_, without)
-    assert after >= 0.9  # the track that resumes after the landing is the gymnast's
+    # The box centre the tracker follows swings up to 0.3 m about the centre of mass as the body
+    # folds into the pike, and a parabola fitted over a third of a second carries that swing on:
+    # the prediction drifts up to ~0.7 m from the box by the landing, but keeps the target.
+    with_, after = covered(RECIPES["cascade+"], 0.75)
+    without, after_without = covered(recipe("cascade+", without=["ballistic"]), 0.75)
+    assert with_ >= 0.9 and with_ > without + 0.5, (with_, without)
+    assert after >= 0.75 and after > after_without + 0.5, (after, after_without)  # the track that resumes is the gymnast's

@@ -187,6 +187,8 @@ def turns(frame: np.ndarray, heading: np.ndarray, support: np.ndarray, incl: np.
             delta = hd[q1] - hd[p0]
             if abs(delta) < TURN_MIN_DEG:
                 continue
+            if frame[-1] < frame[a + q] + TURN_AFTER_S * fps:  # the data end before "on the spot" can be told
+                continue
             after = np.flatnonzero((frame >= frame[a + p]) & (frame <= frame[a + q] + TURN_AFTER_S * fps))
             travel = np.linalg.norm(com[after[-1], :2] - com[a + p, :2])  # walking on after turning is no turn
             if not travel <= TURN_TRAVEL_M:

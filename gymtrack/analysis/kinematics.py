@@ -15,35 +15,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..segments import BODIES, DE_LEVA, HAND_OVER_FOREARM, HEAD, com_weights, segment_table
 from .joints import I
 
-#: de Leva (1996), Table 4, segment parameters adjusted to joint centres:
-#: segment -> (mass % female, mass % male, CM % from the proximal end female, male)
-DE_LEVA: dict[str, tuple[float, float, float, float]] = {
-    "head": (6.68, 6.94, 58.94, 59.76),  # vertex -> cervicale
-    "trunk": (42.57, 43.46, 41.51, 44.86),  # cervicale -> mid-hip
-    "upper_arm": (2.55, 2.71, 57.54, 57.72),  # shoulder -> elbow
-    "forearm": (1.38, 1.62, 45.59, 45.74),  # elbow -> wrist
-    "hand": (0.56, 0.61, 74.74, 79.00),  # wrist -> 3rd metacarpal head
-    "thigh": (14.78, 14.16, 36.12, 40.95),  # hip -> knee
-    "shank": (4.81, 4.33, 44.16, 44.59),  # knee -> lateral malleolus
-    "foot": (1.29, 1.37, 40.14, 44.15),  # heel -> toe tip
-}
-#: hand length (wrist to 3rd metacarpal head) over forearm length (de Leva's mean lengths)
-HAND_OVER_FOREARM = 0.31
-BODIES = ("mean", "female", "male")
-
-
-def segment_table(body: str = "mean") -> dict[str, tuple[float, float]]:
-    """segment -> (mass fraction, CM fraction from the proximal end) for ``body`` (mean | female | male)."""
-    if body not in BODIES:
-        raise ValueError(f"body must be one of {', '.join(BODIES)}, got {body!r}")
-    out = {}
-    for seg, (mf, mm, cf, cm) in DE_LEVA.items():
-        m, c = {"female": (mf, cf), "male": (mm, cm), "mean": ((mf + mm) / 2, (cf + cm) / 2)}[body]
-        out[seg] = (m / 100.0, c / 100.0)
-    return out
-
+__all__ = ["BODIES", "DE_LEVA", "HAND_OVER_FOREARM", "segment_table", "frame_angles", "centre_of_mass", "com_sd",
+           "head_centre", "included", "mid", "vector_angle", "angle_sd"]
 
 def _j(X: np.ndarray, name: str) -> np.ndarray:
     return X[..., I[name], :]
@@ -100,42 +76,28 @@ def centre_of_mass(X: np.ndarray, body: str = "mean") -> tuple[np.ndarray, np.nd
     """The centre of mass (..., M, 3) and a (..., M) bool flag: True where a joint a segment needs
     is missing and the mid-hip ``H`` stands in for the centre of mass.
 
-    Segments (de Leva 1996, :data:`DE_LEVA`): head at the head's centre (COCO has no vertex or
-    cervicale), trunk from the mid-shoulder (for the cervicale) to the mid-hip, upper arms,
-    forearms, hands along the forearm beyond the wrist (hand length ``HAND_OVER_FOREARM`` x the
-    forearm), thighs, shanks, feet at the ankles (COCO has no heel or toe).
+    Segments: de Leva 1996 placed on the COCO joints (:func:`gymtrack.segments.com_weights`: trunk
+    from the mid-shoulder to the mid-hip, hands beyond the wrists, feet at the ankles), the head at
+    :func:`head_centre` (the mid-ears, else an ear, else the nose).
     """
-    T = segment_table(body)
-    S, H = mid(X, "left_shoulder", "right_shoulder"), mid(X, "left_hip", "right_hip")
-
-    def along(a, b, seg):
-        return a + T[seg][1] * (b - a)
-
-    parts = [(T["head"][0], head_centre(X)), (T["trunk"][0], along(S, H, "trunk"))]
-    for side in ("left", "right"):
-        sh, el, wr = _j(X, f"{side}_shoulder"), _j(X, f"{side}_elbow"), _j(X, f"{side}_wrist")
-        hip, kn, an = _j(X, f"{side}_hip"), _j(X, f"{side}_knee"), _j(X, f"{side}_ankle")
-        parts += [(T["upper_arm"][0], along(sh, el, "upper_arm")), (T["forearm"][0], along(el, wr, "forearm")),
-                  (T["hand"][0], wr + T["hand"][1] * HAND_OVER_FOREARM * (wr - el)),
-                  (T["thigh"][0], along(hip, kn, "thigh")), (T["shank"][0], along(kn, an, "shank")),
-                  (T["foot"][0], an)]
-    total = sum(m for m, _ in parts)
-    com = sum(m * p for m, p in parts) / total
+    W = com_weights(body)
+    com = (W[HEAD[0]] + W[HEAD[1]]) * head_centre(X)
+    for name, w in W.items():
+        if name not in HEAD:
+            com = com + w * _j(X, name)
     fallback = ~np.all(np.isfinite(com), axis=-1)
-    return np.where(fallback[..., None], H, com), fallback
+    return np.where(fallback[..., None], mid(X, "left_hip", "right_hip"), com), fallback
 
 
 def com_sd(sigma: np.ndarray, body: str = "mean") -> np.ndarray:
     """(M,) the centre of mass' position sd (m, per axis) from the joints' isotropic, independent
-    sds ``sigma`` (M, K): the centre of mass is a fixed linear combination of the joints (its
-    weights from :func:`centre_of_mass` itself), so sd = sqrt(sum_k w_k^2 sigma_k^2); where a joint
+    sds ``sigma`` (M, K): the centre of mass is a fixed linear combination of the joints
+    (:func:`gymtrack.segments.com_weights`), so sd = sqrt(sum_k w_k^2 sigma_k^2); where a joint
     is missing, the mid-hip's sd (the fallback)."""
-    K = sigma.shape[-1]
-    E = np.zeros((K, K, 3))
-    E[np.arange(K), np.arange(K), 0] = 1.0
-    w = centre_of_mass(E, body)[0][:, 0]  # (K,) each joint's weight
-    from .joints import I
-
+    W = com_weights(body)
+    w = np.zeros(sigma.shape[-1])
+    for name, wk in W.items():
+        w[I[name]] = wk
     with np.errstate(invalid="ignore"):
         sd = np.sqrt(np.sum((w * sigma) ** 2, axis=-1))
         hip = 0.5 * np.sqrt(sigma[..., I["left_hip"]] ** 2 + sigma[..., I["right_hip"]] ** 2)

@@ -15,12 +15,15 @@ towards the front, a forward salto adds +2 pi) and twist (about the body's long 
 
 The *centre* of a body is the centre of the axis-aligned 3D box of its padded points; ``top_z``
 and ``bottom_z`` are that box's top and bottom. This is the point a box-centre triangulation
-with many views converges to, so it is what the ground truth reports.
+with many views converges to, so it is what the ground truth reports. The centre of mass
+(:meth:`BodyModel.com_offset`) is another point: the one gravity moves on a parabola in flight.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from ..segments import com_weights
 
 #: COCO-17 joint names, in COCO order (the first 17 body points).
 COCO_JOINTS: tuple[str, ...] = (
@@ -35,6 +38,8 @@ EXTRA_POINTS: tuple[str, ...] = (
 POINT_NAMES = COCO_JOINTS + EXTRA_POINTS
 N_POINTS = len(POINT_NAMES)
 _I = {n: i for i, n in enumerate(POINT_NAMES)}
+_COM_IDX = np.array([_I[n] for n in com_weights()])
+_COM_W = np.array(list(com_weights().values()))
 
 #: Flesh radius of every point, metres, for a 1.70 m body (scaled with height).
 _PAD_170 = np.array(
@@ -228,6 +233,12 @@ class BodyModel:
         hi = (Q + self.pad[None, :, None]).max(axis=1)
         c = (lo + hi) / 2
         return Q - c[:, None, :], (hi - lo) / 2
+
+    def com_offset(self, angles, yaw, pitch, twist) -> np.ndarray:
+        """(n, 3) the centre of mass relative to the centre: de Leva's segments on the COCO joints
+        (:func:`gymtrack.segments.com_weights`, the analysis' own weights)."""
+        rel, _ = self.oriented(angles, yaw, pitch, twist)
+        return np.einsum("k,nkd->nd", _COM_W, rel[:, _COM_IDX])
 
     def grip_offset(self, rel: np.ndarray) -> np.ndarray:
         """(n, 3) the point between the palms, relative to the centre, from ``rel`` of :meth:`oriented`."""

@@ -25,8 +25,10 @@ simulator's exact state, never to a measured skeleton:
   contract's handstand, the long axis A->S turning slower than :data:`STILL_DEG_S` over
   :data:`STILL_SPAN_S` either side) counts from that handstand where it is nearer the take-off than
   the upright frame: the rotation runs from the position the element starts from (the pommel
-  horse's dismount from handstand over the horse is half a revolution). ``apex_z``, ``height_gain`` and ``distance`` are left out: the simulator has
-  no mass model, so its body centre is not the centre of mass.
+  horse's dismount from handstand over the horse is half a revolution). ``apex_z``, ``height_gain`` and ``distance`` are left out: they
+  are the analysis' readings of the centre of mass (de Leva on the joints, which the simulator's
+  flights keep on the parabola: :meth:`~gymtrack.simulate.motion.MotionBuilder.flight`), so the
+  eval reads their truth off ``gt/keypoints_3d.csv`` itself.
 - landing: the choreography never steps after a landing: ``steps`` 0, ``stuck``.
 - hold: the still part (every true joint slower than 0.1 m/s, >= 1 s) of a held pose, extended
   over the slow ends of its neighbours.
@@ -38,7 +40,9 @@ simulator's exact state, never to a measured skeleton:
 - turn: a turn on support and on the spot, of at least 90 deg (less 5 deg: :data:`MIN_TURN_DEG`),
   rounded to 90: a pivot (beam), a turn standing (to face the judges, the apparatus), and the
   heading's turn as a walk sets off when the body moves under 0.5 m while turning and 0.3 s after
-  (a slow walk back along the beam; walking round a corner is no turn element).
+  (a slow walk back along the beam; walking round a corner is no turn element). A turn that
+  follows another the same way without a frame of rest is one turn with it (two half pivots back
+  to back: the analysis reads turns from rest to rest).
 """
 
 from __future__ import annotations
@@ -57,7 +61,7 @@ MIN_FLIGHT_S = 0.15
 HOLD_SPEED = 0.1  #: m/s
 MIN_HOLD_S = 1.0
 MIN_TURN_DEG = 85.0  #: "at least 90 deg", less a frame's worth (a turn to face the judges ends a hair short)
-NO_COM = ("the simulator has no mass model (its body centre is the box centre, not the centre of mass): "
+NO_COM = ("a reading of the centre of mass (de Leva on the joints): "
           "the true value is the analysis of gt/keypoints_3d.csv")
 
 # COCO-17 joint indices
@@ -233,6 +237,18 @@ def _circles(grips: list[dict], som: np.ndarray, fps: float) -> list[dict]:
     return out
 
 
+def _joined_turns(turns: list[dict]) -> list[dict]:
+    """Turn records in frame order, a turn that follows another the same way with no frame of rest
+    between joined to it: two half pivots back to back are one full turn to the eye."""
+    out: list[dict] = []
+    for r in sorted(turns, key=lambda r: r["start"]):
+        if out and r["start"] == out[-1]["end"] + 1 and np.sign(r["degrees"]) == np.sign(out[-1]["degrees"]):
+            out[-1] = dict(out[-1], end=r["end"], degrees=out[-1]["degrees"] + r["degrees"])
+        else:
+            out.append(dict(r))
+    return out
+
+
 def ground_truth_elements(records: list[dict], yaw: np.ndarray, pitch: np.ndarray, twist: np.ndarray, keypoints: np.ndarray,
                           app: Apparatus, fps: float, track_id: int) -> dict:
     """The ``gt/elements.json`` document of the target.
@@ -254,7 +270,8 @@ def ground_truth_elements(records: list[dict], yaw: np.ndarray, pitch: np.ndarra
     for r in records:
         if r["kind"] == "landing":
             els.append({"kind": "landing", "frame": r["start"] + 1, "steps": 0, "largest_step": 0.0, "stuck": True})
-        elif r["kind"] == "turn" and abs(r["degrees"]) >= MIN_TURN_DEG - 1e-6:
+    for r in _joined_turns([r for r in records if r["kind"] == "turn"]):
+        if abs(r["degrees"]) >= MIN_TURN_DEG - 1e-6:
             els.append({"kind": "turn", "start_frame": r["start"] + 1, "end_frame": r["end"] + 1,
                         "degrees": float(90 * np.round(abs(r["degrees"]) / 90.0))})
     runs = still_runs(keypoints, fps)

@@ -8,8 +8,8 @@ angles) and appends *phases*, each built as whole arrays over its frames (never 
 per frame). A phase starts one frame after the last frame already built, from the state that
 frame left, so joins are continuous by construction. Supported phases place the body by its
 feet (:meth:`BodyModel.centre_on_feet`) or by its palms on a bar or ring
-(:meth:`BodyModel.centre_on_grip`); ballistic phases follow ``p(t) = p0 + v0 t - g t^2 / 2 e_z``
-exactly (:meth:`MotionBuilder.flight`).
+(:meth:`BodyModel.centre_on_grip`); in ballistic phases the centre of mass follows
+``p(t) = p0 + v0 t - g t^2 / 2 e_z`` exactly (:meth:`MotionBuilder.flight`).
 """
 
 from __future__ import annotations
@@ -23,8 +23,13 @@ from .grip import GripPhases
 from .phases import (DISMOUNT, G, LANDING, MOUNT, OFF_PLANE, PERFORMING, PHASE_NAMES, RUN_UP, SALUTE, SKILL, WAIT, WALK,
                      smoothstep, wrap_angle)
 
-__all__ = ["G", "WALK", "SALUTE", "MOUNT", "SKILL", "DISMOUNT", "LANDING", "OFF_PLANE", "WAIT", "RUN_UP", "PHASE_NAMES",
+__all__ = ["G", "MAX_LANDING_CARRY", "WALK", "SALUTE", "MOUNT", "SKILL", "DISMOUNT", "LANDING", "OFF_PLANE", "WAIT", "RUN_UP", "PHASE_NAMES",
            "PERFORMING", "smoothstep", "wrap_angle", "Motion", "MotionBuilder"]
+
+
+#: metres the body carries on over its planted feet while it absorbs a landing (about a foot's
+#: length: the centre of mass leans over the feet; farther is a step)
+MAX_LANDING_CARRY = 0.25
 
 
 @dataclass
@@ -289,20 +294,28 @@ class MotionBuilder(GripPhases):
     def absorb(self, support_z: float, seconds: float, angles_end, posture: int = B.CROUCH, phase: int = SKILL) -> None:
         """Absorb a landing: the feet are down, the legs bend on into ``angles_end`` while the
         body keeps moving the way it came and slows to rest (ease-out, so the centre's speed
-        falls from the impact speed instead of stopping within one frame)."""
+        falls from the impact speed instead of stopping within one frame). The feet stay planted,
+        so the body carries on over them by at most :data:`MAX_LANDING_CARRY` (a landing with more
+        momentum than that would take a step, which the choreography does not make)."""
         if self.n < 2:
             return
-        last = self._chunks[-1]["centre"]
-        prev = last[-2] if len(last) >= 2 else self._chunks[-2]["centre"][-1]
-        v_h = (self.centre[:2] - prev[:2]) * self.fps
+        v_h = self.com_velocity()[:2]  # the centre of mass carries on, not the turning body's box
         n = self.frames_for(seconds)
         T = n / self.fps
         tau = self._tau(n)
         s = 1.0 - (1.0 - tau) ** 2
         a = self._blend_angles(angles_end, s)
-        xy = self.centre[None, :2] + (0.5 * T * s)[:, None] * v_h[None]
+        carry = 0.5 * T * v_h
+        carry *= min(1.0, MAX_LANDING_CARRY / max(float(np.linalg.norm(carry)), 1e-9))
+        xy = self.centre[None, :2] + s[:, None] * carry[None]
         c = self.body.centre_on_feet(xy, support_z, a, np.full(n, self.yaw), np.full(n, self.pitch), np.full(n, self.twist))
         self.append(c, self.yaw, self.pitch, self.twist, a, posture, phase)
+
+    def com_velocity(self) -> np.ndarray:
+        """(3,) the centre of mass' velocity over the last frame built (m/s)."""
+        two = {k: np.concatenate([c[k][-2:] for c in self._chunks[-2:]])[-2:] for k in ("centre", "angles", "yaw", "pitch", "twist")}
+        q = two["centre"] + self.body.com_offset(two["angles"], two["yaw"], two["pitch"], two["twist"])
+        return (q[1] - q[0]) * self.fps
 
     def push(self, support_z: float, seconds: float, angles_end, posture: int = B.STAND, phase: int = SKILL) -> None:
         """Push off: the legs extend into ``angles_end`` speeding up (ease-in), so a flight that
@@ -339,26 +352,32 @@ class MotionBuilder(GripPhases):
 
     def flight(self, centre_end, n_frames: int, pitch_end: float, twist_end: float | None = None, yaw_end: float | None = None,
                angle_keys=None, posture: int = B.TUCK, phase: int = SKILL) -> np.ndarray:
-        """Ballistic flight to ``centre_end`` in exactly ``n_frames`` frames; returns the take-off velocity.
+        """Ballistic flight to ``centre_end`` in exactly ``n_frames`` frames; returns the centre of
+        mass' take-off velocity.
 
-        Frames 1..n-1 are in the air (``flight`` True) and follow the parabola exactly; frame n
+        Frames 1..n-1 are in the air (``flight`` True) and the centre of mass follows the parabola
+        exactly (the centre moves about it as the body turns and changes shape); frame n
         is the contact (landing or regrasp) at ``centre_end``. Rotations are uniform in time
         (angular momentum is conserved; the shape changes are in ``angle_keys``).
         """
         n = max(2, int(n_frames))
         T = n / self.fps
-        p0 = self.centre.copy()
-        p1 = np.asarray(centre_end, dtype=np.float64)
-        gvec = np.array([0.0, 0.0, -G])
-        v0 = (p1 - p0) / T - 0.5 * gvec * T
         t = np.arange(1, n + 1) / self.fps
-        c = p0[None] + t[:, None] * v0[None] + 0.5 * t[:, None] ** 2 * gvec[None]
-        c[-1] = p1  # the same number up to rounding; make the contact exact
         tau = t / T
         pitch = self.pitch + tau * (pitch_end - self.pitch)
         twist = self.twist + tau * ((self.twist if twist_end is None else twist_end) - self.twist)
         yaw = self.yaw + tau * ((self.yaw if yaw_end is None else yaw_end) - self.yaw)
         a = self.keyframed_angles(n, angle_keys) if angle_keys else np.repeat(self.angles[None], n, 0)
+        # Gravity moves the centre of mass, not the box centre: a body that turns over or changes
+        # shape in the air moves its centre about its centre of mass.
+        off = self.body.com_offset(a, yaw, pitch, twist)
+        off0 = self.body.com_offset(self.angles[None], np.array([self.yaw]), np.array([self.pitch]), np.array([self.twist]))[0]
+        q0 = self.centre + off0
+        q1 = np.asarray(centre_end, dtype=np.float64) + off[-1]
+        gvec = np.array([0.0, 0.0, -G])
+        v0 = (q1 - q0) / T - 0.5 * gvec * T
+        c = q0[None] + t[:, None] * v0[None] + 0.5 * t[:, None] ** 2 * gvec[None] - off
+        c[-1] = centre_end  # the same number up to rounding; make the contact exact
         fl = np.ones(n, bool)
         fl[-1] = False
         self.record("flight", self.n, self.n + n - 2)

@@ -4,7 +4,10 @@ detector gaps in the air.
 Beyond the paper (Section III-D's target stage). In the air the body's centre of mass follows a
 parabola under g = 9.81 m/s^2, exactly; flights, releases and dismounts are where detectors miss
 boxes (motion blur, inverted bodies) and tracks break. The box centre stands in for the centre of
-mass (their difference moves slowly against the flight's fall).
+mass. It is not on the parabola itself: it moves up to ~0.3 m about the centre of mass as the body
+folds and turns (0.2 m in 0.2 s as a vault's body folds into its pike), so a parabola fitted over
+a third of a second drifts by up to ~0.7 m before the landing -- near enough to hold the target
+and hand it to the track that resumes it.
 
 * :func:`fit_flight` -- the parabola with g fixed, fitted by least squares to the target's last
   points: ``x(t) = x0 + vx t``, ``y(t) = y0 + vy t``, ``z(t) = z0 + vz t - g t^2 / 2`` (t in

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from .. import body as B
-from ..motion import DISMOUNT, MOUNT, SKILL, WAIT, WALK, smoothstep
+from ..motion import DISMOUNT, MAX_LANDING_CARRY, MOUNT, SKILL, WAIT, WALK, smoothstep
 from .choreography import (CROUCH_LIGHT, TWO_PI, Choreography, Event, across_yaw, dismount_from_circle, flyaway_saltos, lift_to_hang,
                            pitch_ahead, support_shape)
 
@@ -274,7 +274,8 @@ def _dismount_off_the_end(c: Choreography, end_dir: float, up: float) -> None:
     n_salto = int(rng.choice([0, 1]))
     shape = rng.choice([B.TUCK, B.PIKE])
     nxt = np.ceil(b.pitch / TWO_PI) * TWO_PI if d > 0 else np.floor(b.pitch / TWO_PI) * TWO_PI
-    land_x = float(end_dir * rng.uniform(PB_HALF + 0.5, PB_HALF + 0.8))
+    far = c.app.performance_space[3] - MAX_LANDING_CARRY - 0.05  # landed, the body carries on over its feet
+    land_x = float(end_dir * min(rng.uniform(PB_HALF + 0.5, PB_HALF + 0.8), far))
     gain = rng.uniform(0.3, 0.6)
     y_land = rng.uniform(-0.05, 0.05)
     n0 = b.n
@@ -288,7 +289,7 @@ def _dismount_off_the_end(c: Choreography, end_dir: float, up: float) -> None:
         if not (low & within).any() or attempt == 7:
             return
         b.truncate(b.n - n0)
-        gain, land_x = gain + 0.1, land_x + end_dir * 0.15
+        gain, land_x = gain + 0.1, end_dir * min(abs(land_x) + 0.15, far)
 
 
 def parallel_bars_routine(c: Choreography) -> None:
