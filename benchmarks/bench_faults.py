@@ -10,7 +10,8 @@ apparatus, n_cam 3 and 4; other people are seen by all four cameras) get one fau
   Target AED (cascade+) of the resynchronised boxes against the synchronised run.
 - knock: a ``--degrees`` turn of one camera at mid-routine; detected when the tracker's summary
   names that camera within 5 s; a false alarm is any other event, and any event on the clean
-  routine. Target AED with re-estimation against the unknocked run.
+  routine. Target AED with re-estimation against the unknocked run; the turn the offline second
+  pass applied against the simulator's (degrees), and the frame it applied it from against the knock's.
 
 Usage::
 
@@ -30,12 +31,31 @@ from gymtrack.eval.benchmark import evaluate_routine
 from gymtrack.eval.fault_bench import resynchronise
 from gymtrack.eval.faults import desync_camera, knock_camera, knock_rotation
 from gymtrack.simulate.routine import simulate_n_cams
+from gymtrack.tracking import offline
 from gymtrack.tracking.offline import track_detections
 from gymtrack.tracking.sync import estimate_offsets
 
 
+APPLIED: dict = {}  # the turns the offline second pass applied: {camera: (from frame, rotation)}
+
+
+def _recording(*args):
+    if len(args) > 8 and args[8]:
+        APPLIED.update(args[8])
+    return _pass(*args)
+
+
+_pass, offline._track = offline._track, _recording
+
+
+def turn_error(R: np.ndarray, truth: np.ndarray) -> float:
+    """Degrees between the applied rotation and the true knock."""
+    return float(np.degrees(np.arccos(np.clip((np.trace(R @ truth.T) - 1) / 2, -1, 1))))
+
+
 def aed(sim, det, rig=None, recalibrate=True):
     rig = rig or sim.rig
+    APPLIED.clear()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         res = track_detections(rig, sim.scene, det, mode="cascade+", watch_cameras=True, recalibrate=recalibrate)
@@ -86,15 +106,19 @@ def main() -> None:
                     clean_alarms += len(summ.get("camera_moved", []))
                     mid = int((det.frame.min() + det.frame.max()) // 2)
                     for deg in a.degrees:
-                        bad = knock_camera(det, rig[cam], cam, mid, knock_rotation(deg, seed + cam))
+                        truth = knock_rotation(deg, seed + cam)
+                        bad = knock_camera(det, rig[cam], cam, mid, truth)
                         fixed, s = aed(sim, bad, recalibrate=True)
+                        applied = APPLIED.get(cam)
                         plain, _ = aed(sim, bad, recalibrate=False)
                         ev = s.get("camera_moved", [])
                         hit = [e for e in ev if e["camera"] == rig.names[cam] and mid - 30 <= e["start_frame"]
                                and e["detected_frame"] <= mid + 5 * sim.scene.fps]
                         row = {"app": app, "seed": seed, "n_cam": n, "cam": cam, "deg": deg, "detected": bool(hit),
                                "other_events": len(ev) - len(hit), "events": ev, "aed_clean": clean,
-                               "aed_knocked": plain, "aed_recal": fixed}
+                               "aed_knocked": plain, "aed_recal": fixed,
+                               "turn_error": None if applied is None else round(turn_error(applied[1], truth), 3),
+                               "start_error": None if applied is None else applied[0] - mid}
                         knock_rows.append(row)
                         print("knock", row, flush=True)
     print(f"--- {time.time() - t0:.0f} s")
@@ -115,6 +139,13 @@ def main() -> None:
                   f"other events {sum(r['other_events'] for r in rs)}; AED recalibrated / unknocked mean {ratio.mean():.3f} "
                   f"max {ratio.max():.3f}; knocked (no re-estimation) / unknocked mean "
                   f"{np.mean([r['aed_knocked'] / r['aed_clean'] for r in rs]):.3f}")
+            err = np.array([r["turn_error"] for r in rs if r["turn_error"] is not None])
+            start = np.array([r["start_error"] for r in rs if r["start_error"] is not None])
+            if len(err):
+                fixed = np.array([r["aed_recal"] / r["aed_clean"] for r in rs if r["turn_error"] is not None])
+                print(f"knock {deg} deg: applied turn's error (deg) mean {err.mean():.3f} max {err.max():.3f} "
+                      f"({len(err)} applied: their AED ratio mean {fixed.mean():.3f} max {fixed.max():.3f}); start "
+                      f"frame - knock frame median {np.median(start):.0f}, range {start.min()}..{start.max()}")
     if n_clean:
         print(f"clean routines: {clean_alarms} alarms over {n_clean} routines")
 

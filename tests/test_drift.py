@@ -53,7 +53,7 @@ def test_turn_jacobian_predicts_the_residuals_of_a_turned_camera(sim):
     def residuals(uv):
         box = np.zeros((len(rig), 3, 4))
         box[:, :, :2] = uv[:, None]
-        key, R, Xs, S, _ = kernels.residuals(box, np.ones((len(rig), 3), np.bool_), members, mon.Kinv, mon.Rt, mon.centres,
+        key, R, Xs, S, _, _ = kernels.residuals(box, np.ones((len(rig), 3), np.bool_), members, mon.Kinv, mon.Rt, mon.centres,
                                              mon.Pn, *mon.pairs, 1.0, 1, 2)
         return dict(zip(key.tolist(), R)), dict(zip(key.tolist(), zip(Xs, S)))
 
@@ -152,8 +152,9 @@ def test_kernels_match_the_numpy_reference_on_a_routines_windows(sim, monkeypatc
     pa, pb = m.pairs
     judged = 0
     for box, observed, members in seen:
-        key, R, X, S, sums = kernels.residuals(box, observed, members, m.Kinv, m.Rt, m.centres, m.Pn, pa, pb,
+        key, R, X, S, sums, w = kernels.residuals(box, observed, members, m.Kinv, m.Rt, m.centres, m.Pn, pa, pb,
                                                drift.MAX_RESIDUAL, 1, 6)
+        assert len(w) == len(key) and ((w >= 1) & (w < 6)).all()  # each row's frame in the window
         med, start, X, S = kernels.medians(key, R, X, S, m.C * len(pa), drift.MIN_POINTS)
         want, want_sums = residuals_numpy(box, observed, members, m.Kinv, m.Rt, m.centres, m.Pn, pa, pb,
                                           drift.MAX_RESIDUAL, drift.MIN_POINTS, 1, 6)
@@ -220,7 +221,8 @@ def test_knocked_routine_tracked_again_from_the_move_with_the_reestimated_camera
     clean, _ = _track(sim, sim.detections)
     res, msgs = _track(sim, det)
     ev = res.summary["camera_moved"]
-    assert [e["camera"] for e in ev] == ["cam3"] and ev[0]["recalibrated_from_frame"] == ev[0]["start_frame"] <= mid
+    assert [e["camera"] for e in ev] == ["cam3"] and ev[0]["recalibrated_from_frame"] == ev[0]["start_frame"]
+    assert abs(ev[0]["start_frame"] - mid) <= 2
     assert any("cam3" in m and f"from {ev[0]['start_frame']} on tracked again" in m for m in msgs)
     t = sim.ground_truth().target()
     perf = np.unique(t.frame[t.performing(np.asarray(sim.scene.performance_space, float))])

@@ -18,11 +18,14 @@ in) and no other: the camera whose involved keys moved, against the keys not inv
   the fit predicts, and stays; a wrong association moves the keys of one cluster and goes: the
   named turn must still explain the keys over the next two seconds (:data:`HOLD`). Once it has,
   and a sample wholly after the move is in, :class:`DriftMonitor` reports the camera, the frame
-  it started and the size in degrees, and (``recalibrate``) takes the turn fitted over that
-  sample as the camera's rotation (the rotation fitted to its own points, Kabsch / Wahba's
-  problem, is reported beside it as a cross-check) and maps that camera's later boxes back into
-  the calibrated view (``correct``), and the boxes the tracker reports back out (``uncorrect``):
-  a rotation about the centre is the image homography ``K R K^-1``.
+  it started (the frame where its own points split best into unturned and turned) and the size
+  in degrees, and (``recalibrate``) takes the pan and tilt fitted to its own points since the
+  move (:mod:`.turn_fit`; the keys' turn where too few) as the camera's rotation (the rotation
+  fitted to those points, Kabsch / Wahba's problem, is reported beside it as a cross-check) and
+  maps that camera's later boxes back into the calibrated view (``correct``), and the boxes the
+  tracker reports back out (``uncorrect``): a rotation about the centre is the image homography
+  ``K R K^-1``. Its later points are kept: offline, its turn is refitted to all of them
+  (:meth:`DriftMonitor.refined_knocks`).
 - A camera out of sync by ``o`` frames shows its points where the others saw them ``o`` frames
   earlier: its residual is ``-o`` times its points' image velocity. The least-squares ``o``
   over the routine (:meth:`DriftMonitor.sync_suspects`) names the camera and the likely offset.
@@ -39,6 +42,7 @@ import numpy as np
 from ..errors import GymtrackWarning
 from ..geometry.camera import Camera, Rig
 from ._kernels import drift as kernels
+from .turn_fit import TurnEvidence, degrees as _degrees, fit_rotation, rotation as _rotation
 
 __all__ = ["DriftMonitor", "turn_pixels", "fit_rotation"]
 
@@ -86,16 +90,6 @@ def turn_pixels(cam: Camera, uv: np.ndarray, rotation: np.ndarray) -> np.ndarray
     return cam.project(cam.centre + (ray @ rotation.T) @ cam.R)
 
 
-def fit_rotation(before: np.ndarray, after: np.ndarray) -> np.ndarray:
-    """(n, 3) directions in the calibrated camera, (n, 3) where the camera sees them now -> the
-    rotation ``R`` (3, 3) with ``after ~ R before`` (least squares on unit vectors; Kabsch)."""
-    a = before / np.linalg.norm(before, axis=1, keepdims=True)
-    b = after / np.linalg.norm(after, axis=1, keepdims=True)
-    U, _, Vt = np.linalg.svd(b.T @ a)
-    d = np.sign(np.linalg.det(U @ Vt))
-    return U @ np.diag([1.0, 1.0, d]) @ Vt
-
-
 def _small_turn(axis: int, eps: float) -> np.ndarray:
     """(3, 3) I + eps [e_axis]x: a turn by ``eps`` radians about one camera axis, to first order."""
     e = np.zeros(3)
@@ -103,21 +97,7 @@ def _small_turn(axis: int, eps: float) -> np.ndarray:
     return np.eye(3) + np.array([[0, -e[2], e[1]], [e[2], 0, -e[0]], [-e[1], e[0], 0]])
 
 
-def _rotation(w: np.ndarray) -> np.ndarray:
-    """(3,) rotation vector -> (3, 3) rotation (Rodrigues)."""
-    t = float(np.linalg.norm(w))
-    if t < 1e-12:
-        return np.eye(3)
-    k = w / t
-    K = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + np.sin(t) * K + (1 - np.cos(t)) * K @ K
-
-
 _SMALL_TURNS = np.stack([_small_turn(i, 1e-4) for i in range(3)])  # (3, 3, 3) the Jacobians' steps
-
-
-def _degrees(R: np.ndarray) -> float:
-    return float(np.degrees(np.arccos(np.clip((np.trace(R) - 1) / 2, -1, 1))))
 
 
 class DriftMonitor:
@@ -162,6 +142,8 @@ class DriftMonitor:
         self.events: list[dict] = []
         self.turns: dict[int, tuple[int, np.ndarray]] = {}  # camera -> (from frame, rotation now vs calibrated)
         self.knocks: list[tuple[int, int, np.ndarray]] = []  # each re-estimated turn: (camera, start frame, rotation)
+        self.evidence: dict[int, TurnEvidence] = {}  # each knocked camera's own points from its first move on
+        self.history: list[tuple[int, np.ndarray]] = []  # every sample's last frame and median residuals (Nk, 2)
         self.first: int | None = None
         self.n_hold = max(2, int(round(HOLD_SECONDS * fps / every)))
         # (camera, its first moved sample's frame, start, the frame named at, the keys' shifts its turn
@@ -184,7 +166,7 @@ class DriftMonitor:
             rows = kernels.residuals(box, observed, members, self.Kinv, self.Rt, self.centres, self.Pn, *self.pairs,
                                      MAX_RESIDUAL, 1, w_hi)
             self.sums += rows[4]
-            self._rows.append(rows[:4])
+            self._rows.append((*rows[:4], start + rows[5]))  # (with each row's frame)
         if self._windows % EVERY_WINDOWS:
             return
         self.last_frame = start + observed.shape[1] - 1
@@ -195,11 +177,14 @@ class DriftMonitor:
         self.samples.pop(0)
         self.samples.append(None)
         if self._rows:  # the sample: the rows of its windows pooled
-            key, R, X, S = (np.concatenate(a) for a in zip(*self._rows)) if len(self._rows) > 1 else self._rows[0]
+            key, R, X, S, F = (np.concatenate(a) for a in zip(*self._rows))
             med, starts, X, S = kernels.medians(key, R, X, S, len(self.meds), MIN_POINTS)
             self.meds[:, -1] = med
-            self.samples[-1] = (starts, X, S)
+            self.samples[-1] = (starts, X, S, F[np.argsort(key, kind="stable")])  # (the rows' frames, as medians orders them)
+            self.history.append((int(self.frames[-1]), med))
             self._rows = []
+            for c, ev in self.evidence.items():
+                ev.add(self.samples[-1], int(self.frames[-2]) + 1, self.turns[c])
         self._check()
 
     def _steps(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -309,9 +294,10 @@ class DriftMonitor:
 
     def _confirm(self) -> None:
         """The named camera's event, once its turn held over HOLD_SECONDS and FULL_SAMPLES samples
-        wholly after its first moved one are in, and it still explains them best: the turn fitted to the keys' shifts over those samples against the samples before the
-        move (:meth:`_fit`) is the camera's re-estimated rotation; the rotation fitted to its own
-        points (Kabsch) is reported beside it."""
+        wholly after its first moved one are in, and the turn fitted to the keys' shifts over those
+        samples against the samples before the move (:meth:`_fit`) still explains them best: its
+        own points' pan and tilt is the camera's re-estimated rotation (:mod:`.turn_fit`; the keys'
+        turn where too few); the rotation fitted to its own points (Kabsch) is reported beside it."""
         c, first_frame, started, named_frame, pred, base, sigma, held = self._named
         at = np.flatnonzero(self.frames == first_frame)
         if not len(at) or at[0] < 1:  # (the move's sample left the history: named again if it holds)
@@ -350,15 +336,21 @@ class DriftMonitor:
         misfit = np.array([f[0] for f in fits])
         if w is None or np.delete(misfit, c).min() - misfit[c] < MARGIN_HELD:
             return  # (over the samples after the move, another camera's turn explains them as well)
-        R, kabsch = _rotation(w), self._refit(c, after) @ self._refit(c, before).T
+        ev = TurnEvidence(self.Pn[c], own, np.stack([m for f, m in self.history if f < self.frames[first]]
+                                                    or [np.full((len(self.meds), 2), np.nan)]), self.samples[first + 1:])
+        keys, R = _rotation(w), ev.fit()  # its own points' pan and tilt (:mod:`.turn_fit`); too few: the keys' turn
+        R, kabsch = keys if R is None else R, self._refit(c, after) @ self._refit(c, before).T
+        started = ev.start(self.samples[max(0, first - 2):first + 2], R) or started
         frame = self.last_frame
         event = {"camera": self.rig.names[c], "start_frame": started, "detected_frame": int(frame),
                  "start_seconds": round((started - self.first) / self.fps, 2),
-                 "degrees": round(_degrees(R), 2), "turn_degrees": round(_degrees(kabsch), 2)}
+                 "degrees": round(_degrees(keys), 2), "turn_degrees": round(_degrees(kabsch), 2)}
         if self.recalibrate:
             prev = self.turns.get(c, (0, np.eye(3)))[1]
             self.turns[c] = (int(frame) + 1, R @ prev)
             self.knocks.append((c, started, R))
+            if c not in self.evidence:  # its first turn: refitted offline to every point from the move on
+                ev.applied, ev.knock, self.evidence[c] = self.turns[c], len(self.knocks) - 1, ev
             event |= {"recalibrated_from_frame": int(frame) + 1, "rotation_degrees": round(_degrees(R @ prev), 2)}
         self.events.append(event)
         warnings.warn(f"camera {event['camera']} moved by about {event['degrees']} deg from frame {started} "
@@ -367,6 +359,14 @@ class DriftMonitor:
                       else "recalibrate it"), GymtrackWarning, stacklevel=3)
         self.meds[:] = np.nan  # every camera's residuals moved with it: a new baseline after the move
         self.samples = [None] * len(self.samples)
+
+    def refined_knocks(self) -> list[tuple[int, int, np.ndarray]]:
+        """:attr:`knocks`, each camera's first turn refitted to all its points from the move on."""
+        out = list(self.knocks)
+        for c, ev in self.evidence.items():
+            if (R := ev.fit()) is not None:
+                out[ev.knock] = (c, out[ev.knock][1], R)
+        return out
 
     def _refit(self, c: int, samples: list[tuple]) -> np.ndarray:
         """The rotation of camera ``c`` against its calibration, from the (n, 3) world points the

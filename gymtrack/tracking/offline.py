@@ -7,9 +7,10 @@ triangulation pass before tracking (:func:`~.plane_fit.resolve_auto_planes`).
 
 Beyond the paper: a knocked camera (:mod:`.drift`) is found seconds after it moved, and a stream
 can only correct its boxes from then on. Offline, the whole routine is at hand: once a turn is
-re-estimated, the routine is tracked again with each knocked camera's first turn applied from the
-frame its move started (its later turns found as the stream finds them), so the frames between
-the knock and its detection are tracked with the corrected camera too. A clean routine is tracked once.
+re-estimated, the routine is tracked again with each knocked camera's first turn, refitted to all
+its points from the move to the end (:mod:`.turn_fit`), applied from the frame its move started
+(its later turns found as the stream finds them), so the frames between the knock and its
+detection are tracked with the corrected camera too. A clean routine is tracked once.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from ..scene import Scene
 from .plane_fit import resolve_auto_planes
 from ..modes import DEFAULT_MODE, Method
 from .tracker import Tracker
+from .turn_fit import degrees
 from .types import TrackerOutput, TrackResult
 
 
@@ -58,7 +60,7 @@ def track_detections(
         return _track(rig, scene, det, mode, association, progress, watch_cameras, recalibrate)[0]
     said, (result, venue) = _recorded(_track, rig, scene, det, mode, association, progress, True, True)
     first: dict[int, tuple[int, object]] = {}
-    for c, start, R in venue.knocks:  # each knocked camera's first turn, from the frame its move started
+    for c, start, R in venue.refined_knocks():  # each knocked camera's first turn (refitted), from the frame its move started
         first.setdefault(c, (start, R))
     if first:
         known, named = [], set()
@@ -66,7 +68,7 @@ def track_detections(
             c = rig.names.index(e["camera"])
             if "recalibrated_from_frame" in e and c not in named:
                 named.add(c)
-                known.append({**e, "recalibrated_from_frame": first[c][0]})
+                known.append({**e, "recalibrated_from_frame": first[c][0], "rotation_degrees": round(degrees(first[c][1]), 2)})
         again, (result, _) = _recorded(_track, rig, scene, det, mode, association, None, True, True, first, known)
         told = {(str(w.message), w.category) for w in said}
         said += [w for w in again if (str(w.message), w.category) not in told]

@@ -29,7 +29,7 @@ def residuals(box, observed, members, Kinv, Rt, centres, Pn, pa, pb, max_residua
     pairs, max_residual (radians), the window's frames ``w_lo .. w_hi - 1`` -> the residuals' rows:
     key (n,) camera x pair (``c * Np + p``), R (n, 2) seen - predicted, X (n, 3) the triangulated
     point, S (n, 2) where the camera saw it; sums (C * Np, 3) by key: n, v.v, v.r of the rows with
-    an image velocity (central difference inside the window)."""
+    an image velocity (central difference inside the window); w (n,) each row's frame in the window."""
     M, C = members.shape
     W = box.shape[1]
     Np = len(pa)
@@ -44,6 +44,7 @@ def residuals(box, observed, members, Kinv, Rt, centres, Pn, pa, pb, max_residua
     R = np.empty((cap, 2))
     X = np.empty((cap, 3))
     S = np.empty((cap, 2))
+    Wr = np.empty(cap, np.int64)
     sums = np.zeros((C * Np, 3))
     n = 0
     for m in range(M):
@@ -94,6 +95,7 @@ def residuals(box, observed, members, Kinv, Rt, centres, Pn, pa, pb, max_residua
                     R[n, 0], R[n, 1] = r0, r1
                     X[n, 0], X[n, 1], X[n, 2] = P0, P1, P2
                     S[n, 0], S[n, 1] = x0, x1
+                    Wr[n] = w
                     n += 1
                     if 0 < w < W - 1 and observed[kc, w - 1] and observed[kc, w + 1]:
                         u0, u1 = _normalised(box, kc, w + 1, Kinv, c)
@@ -103,7 +105,7 @@ def residuals(box, observed, members, Kinv, Rt, centres, Pn, pa, pb, max_residua
                             sums[c * Np + p, 0] += 1
                             sums[c * Np + p, 1] += v0 * v0 + v1 * v1
                             sums[c * Np + p, 2] += v0 * r0 + v1 * r1
-    return key[:n], R[:n], X[:n], S[:n], sums
+    return key[:n], R[:n], X[:n], S[:n], sums, Wr[:n]
 
 
 @njit(cache=True, error_model="numpy")
@@ -164,7 +166,7 @@ def warm_up() -> None:
     Pn = np.zeros((C, 3, 4))
     Pn[:, :, :3] = eye
     pa, pb = np.array([0, 0, 1], np.int64), np.array([1, 2, 2], np.int64)
-    key, R, X, S, _ = residuals(box, np.ones((C, W), np.bool_), np.arange(C, dtype=np.int64).reshape(1, C), eye, eye,
+    key, R, X, S, _, _ = residuals(box, np.ones((C, W), np.bool_), np.arange(C, dtype=np.int64).reshape(1, C), eye, eye,
                                 np.eye(3), Pn, pa, pb, 0.05, 1, W - 1)
     medians(key, R, X, S, C * len(pa), 8)
     steps(np.zeros((2, 5, 2)), 3, 0.001)
