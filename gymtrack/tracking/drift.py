@@ -154,8 +154,9 @@ class DriftMonitor:
 
     # ------------------------------------------------------------ per window
     def observe(self, start: int, box: np.ndarray, observed: np.ndarray, members: np.ndarray) -> None:
-        """One window: segments' undistorted boxes (K, W, 4), observed (K, W), clusters (M, C).
-        Its residuals are kept; every :data:`EVERY_WINDOWS`-th window they are pooled into a sample."""
+        """One window: segments' undistorted boxes (K, W, 4), observed (K, W) (the tracker: not where the image's
+        edge cuts the box), clusters (M, C). Its residuals are kept; every :data:`EVERY_WINDOWS`-th window they are
+        pooled into a sample."""
         if not self.active:
             return
         if self.first is None:

@@ -23,6 +23,7 @@ import numpy as np
 from ..geometry.camera import Rig
 from ._kernels import records as kernels
 from .linking import merge_overlaps
+from .sync import cut_by_border
 from .types import Tracks3D, WindowTracklets, WindowTracklets3D
 from .undistort import UndistortTables
 
@@ -32,11 +33,13 @@ class BoxTable:
 
     Columns of :attr:`rows`: frame (n,) int64, camera (n,) int64, track2d (n,) int64 (the 2D
     track), raw (n, 4) and ubox (n, 4) centre-form boxes in raw and undistorted pixels, score
-    (n,) float32, det (n,) int64 the detection's row id (a tracker-wide counter).
+    (n,) float32, det (n,) int64 the detection's row id (a tracker-wide counter), cut (n,) bool the
+    image's edge cuts the box (:func:`~.sync.cut_by_border`: its centre is not the person's).
     """
 
     def __init__(self, rig: Rig):
         self._undist = UndistortTables(rig) if any(cam.has_distortion for cam in rig) else None
+        self._size = np.array([cam.size for cam in rig], np.float64)  # (C, 2) the images' width, height
         self._pending: list[tuple] = []  # chunks received since the last window, not yet undistorted
         self.rows = self._empty()
         self._det_counter = 0
@@ -56,7 +59,7 @@ class BoxTable:
     def _empty() -> dict:
         return {"frame": np.zeros(0, np.int64), "camera": np.zeros(0, np.int64), "track2d": np.zeros(0, np.int64),
                 "raw": np.zeros((0, 4)), "score": np.zeros(0, np.float32), "det": np.zeros(0, np.int64),
-                "ubox": np.zeros((0, 4))}
+                "ubox": np.zeros((0, 4)), "cut": np.zeros(0, bool)}
 
     def _undistort(self, camera: np.ndarray, box: np.ndarray) -> np.ndarray:
         """Boxes to undistorted pixels: the top-left and bottom-right corners are undistorted
@@ -88,7 +91,8 @@ class BoxTable:
             det = self._det_counter + np.arange(len(c))  # detection row ids, in arrival order
             self._det_counter += len(c)
             new = {"frame": f, "camera": c, "track2d": tid, "raw": raw,
-                   "score": np.concatenate(scores).astype(np.float32), "det": det, "ubox": self._undistort(c, raw)}
+                   "score": np.concatenate(scores).astype(np.float32), "det": det, "ubox": self._undistort(c, raw),
+                   "cut": cut_by_border(self._size[c], raw)}
             self.rows = {k: np.concatenate([v[cut:], new[k]]) for k, v in t.items()}
             return c
         if cut:
@@ -100,6 +104,12 @@ class BoxTable:
         t = self.rows
         row = np.searchsorted(t["det"], det)
         return t["raw"][row], t["score"][row]
+
+    def cut(self, det: np.ndarray) -> np.ndarray:
+        """(...) bool: the detections ``det`` (row ids still held; -1 none: False) whose box the image's
+        edge cuts (:func:`~.sync.cut_by_border`)."""
+        t = self.rows
+        return (det >= 0) & t["cut"][np.minimum(np.searchsorted(t["det"], det), len(t["det"]) - 1)]
 
 
 @dataclass(frozen=True, eq=False)

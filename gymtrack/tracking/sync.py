@@ -35,7 +35,7 @@ from ..detections import Detections
 from ..geometry.camera import Rig
 from ..geometry.epipolar import fundamental_matrices
 
-__all__ = ["SyncResult", "estimate_offsets", "offsets_from_costs", "pair_costs"]
+__all__ = ["SyncResult", "estimate_offsets", "offsets_from_costs", "pair_costs", "cut_by_border"]
 
 CAP = 0.3  # Eq. 1 distance a box with no partner counts for (the same person: about 0.03-0.1 in sync)
 PRIOR = 0.03  # the cost of moving a camera, as a share of a pair's mean cost depth
@@ -143,8 +143,13 @@ def _at_border(det: Detections, rig: Rig) -> np.ndarray:
     """(N,) boxes that touch the image's edge (raw pixels). The border cuts them: their centre is
     not the person's but moves at about half its speed as the person walks in or out, as if that
     view ran early or late, and leans the pair's curve by a frame or more."""
-    size = np.array([cam.size for cam in rig], np.float64)[det.camera]
-    lo, hi = det.box[:, :2] - det.box[:, 2:] / 2, det.box[:, :2] + det.box[:, 2:] / 2
+    return cut_by_border(np.array([cam.size for cam in rig], np.float64)[det.camera], det.box)
+
+
+def cut_by_border(size: np.ndarray, box: np.ndarray) -> np.ndarray:
+    """(n, 2) each box's image size (width, height), (n, 4) centre-form boxes (raw pixels) -> (n,)
+    bool, those within :data:`BORDER` of the image's edge."""
+    lo, hi = box[:, :2] - box[:, 2:] / 2, box[:, :2] + box[:, 2:] / 2
     return ((lo <= BORDER) | (hi >= size - BORDER)).any(axis=1)
 
 
