@@ -48,7 +48,7 @@ __all__ = ["DriftMonitor", "turn_pixels", "fit_rotation"]
 
 BASELINE_SECONDS = 5.0  # the seconds of residuals before the last one: where the camera was
 #: frames: the least-squares offset that names a camera out of sync. Clean simulated routines
-#: give up to 0.67 frames (the demo's high bar: 0.53-0.60) and a camera one frame late 0.2-0.75,
+#: give up to 0.67 frames (the demo's high bar: 0.53-0.60; later 0.30, edge-cut boxes out) and a camera one frame late 0.2-0.75,
 #: so one frame is left to ``gymtrack sync``; three frames late give 1.5 or more
 SYNC_MIN_FRAMES = 1.0
 RECENT_SECONDS = 1.0  # a camera's residuals must have moved for this long
@@ -73,6 +73,7 @@ EVIDENCE_HELD, MARGIN_HELD, OWN_HELD = 20.0, 5.0, 1.5
 #: held 5.7, 2.7). Set on simulated routines (bench_faults' knocks, 7 apparatus, seeds 0-9, n_cam 3
 #: and 4, and the default suite's 56 clean routines of n_cam 3 and 4): no clean one of the 196
 #: alarms, a 0.5 degree knock is named within 5 s in 118 of 140, a 1 degree one in 136 of 140
+#: (simulator with centre-of-mass flights, edge-cut boxes out: 0 of 252 clean; 31/42, 42/42)
 HOLD, HOLD_SECONDS = 3.5, 2.0
 FULL_SAMPLES = 1  # samples wholly after a move that its turn is fitted to
 MAX_RESIDUAL = 0.05  # radians (3 deg): a larger residual is a wrong association, not drift
