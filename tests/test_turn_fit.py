@@ -74,7 +74,7 @@ def test_half_degree_knock_at_three_cameras_refitted_from_every_point_after_it(b
     assert list(applied) == [2]
     assert _angle(applied[2][1], truth) <= 0.15
     ev = res.summary["camera_moved"]
-    assert [e["camera"] for e in ev] == ["cam2"] and abs(ev[0]["rotation_degrees"] - 0.5) <= 0.1
+    assert [e["camera"] for e in ev] == ["cam2"] and abs(ev[0]["rotation_degrees"] - 0.5) <= 0.15  # (as the turn's own bound)
 
 
 def test_knock_start_found_to_the_frame(bars, monkeypatch):
