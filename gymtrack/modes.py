@@ -76,9 +76,9 @@ class Method:
         views nearest each other by Eq. 2 goes on to the plane stage as a pair of its own
         (:mod:`gymtrack.tracking.regroup`): a third view's wrong segment no longer takes the
         gymnast's opposite pair down with it.
-    reidentify: the held target gives way to another track that qualified (Eq. 13) better
-        supported (more views with its detection, or triangulated rather than a plane candidate)
-        in more than Delta / 2 of the last Delta frames (:class:`gymtrack.tracking.identify.TargetSelector`):
+    reidentify: the held target gives way to another track that qualified (Eq. 13) seen in
+        more views than the target (triangulated or on the plane alike) in more than Delta / 2
+        of the last Delta frames (:class:`gymtrack.tracking.identify.TargetSelector`):
         a phantom of association identified before the gymnast qualified is not held while the
         gymnast's own track qualifies; else the target is held until it ends or leaves.
     name: what results and reports call it.

@@ -12,7 +12,7 @@ import pytest
 from conftest import ring_rig
 
 from gymtrack.detections import Detections
-from gymtrack.tracking.identify import TargetBackfill, TargetSelector, backfill, identify_indicator
+from gymtrack.tracking.identify import TargetBackfill, TargetSelector, backfill, identify_indicator, point_support
 from gymtrack.tracking.smoothing import TargetSmoother
 from gymtrack.tracking.target import (
     BODY_HALF_DEPTH, MIN_HALF_LENGTH, MIN_LENGTH_COS, buffered_boxes, track_box_sizes)
@@ -379,6 +379,36 @@ def test_reidentify_needs_a_qualifying_track_with_more_support():
     sel = TargetSelector(identify_frames=10, reidentify=True, counts=counts)
     target = _run_with_support(sel, range(40), rows)
     assert np.all(target[5:] == 1) and sel.switches == 0 and counts == {}
+
+
+def _sizes(views, n_cameras=4):
+    """(C, 2) detection sizes of a point seen in ``views`` (NaN elsewhere)."""
+    wh = np.full((n_cameras, 2), np.nan)
+    wh[list(views)] = (60.0, 150.0)
+    return wh
+
+
+def test_point_support_counts_the_views_with_a_detection():
+    wh = np.stack([_sizes([]), _sizes([0]), _sizes([0, 1]), _sizes([0, 1, 3])])
+    assert point_support(wh).tolist() == [0, 1, 2, 3]
+
+
+def test_reidentify_keeps_the_target_from_a_triangulated_wrong_pair_of_the_same_views():
+    # the gymnast (track 1): the opposite pair cam0/cam1, a plane candidate, from frame 0; a
+    # phantom (track 2) from frame 10: a wrong pair of boxes of the same two views whose rays
+    # meet short of opposite, so it is triangulated. Both qualify (on the high bar / in the air).
+    gymnast, phantom = point_support(np.stack([_sizes([0, 1])] * 2))  # plane candidate, triangulated
+    rows = {f: [(1, True, int(gymnast))] + ([(2, True, int(phantom))] if f >= 10 else []) for f in range(60)}
+    counts = {}
+    sel = TargetSelector(identify_frames=10, reidentify=True, counts=counts)
+    target = _run_with_support(sel, range(60), rows)
+    assert np.all(target[5:] == 1) and sel.switches == 0 and counts == {}
+    # the same phantom does take the target from a track seen in one view only
+    rows = {f: [(1, True, int(point_support(_sizes([1])[None])[0]))] + ([(2, True, int(phantom))] if f >= 10 else [])
+            for f in range(60)}
+    sel = TargetSelector(identify_frames=10, reidentify=True)
+    target = _run_with_support(sel, range(60), rows)
+    assert np.all(target[5:15] == 1) and np.all(target[15:] == 2) and sel.switches == 1
 
 
 def test_paper_selector_keeps_no_support_and_reidentify_needs_it():

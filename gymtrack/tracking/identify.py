@@ -15,11 +15,13 @@
   simulations it also picks short-lived wrong tracks: more coverage, more switches.)
   Beyond the paper (the recipe's ``reidentify``): the held target gives way to another live
   track when, in more than Delta / 2 of the last Delta frames, that track qualified with a
-  point better observed than the target's at that frame (:func:`point_support`: more views
-  with its detection, or triangulated rather than a plane candidate; a frame without a target
-  point counts as less). A phantom of association (a plane candidate of one view or of an
-  opposite pair fused with someone else's box) identified while the gymnast stood on the floor
-  is then not held while the gymnast's own track qualifies. It counts as a switch.
+  point seen in more views than the target's at that frame (:func:`point_support`; a frame
+  without a target point counts as none). A phantom of association (a plane candidate of one
+  view) identified while the gymnast stood on the floor is then not held while the gymnast's
+  own track qualifies. It counts as a switch. Whether a point was triangulated or placed on the
+  plane does not count: two views' boxes triangulate whenever their rays meet short of
+  opposite, a wrong pair as readily as the right one, so a phantom of a wrong pair would take
+  the target from a gymnast seen by the same two views as an opposite pair.
 * :class:`TargetBackfill` -- beyond the paper: Eq. 13 decides from the last Delta frames, so
   when it identifies a track, the frames it looked at are the target's too. The decisions wait
   ``backfill_frames`` frames; an identification hands its track the frames of that look-back
@@ -35,7 +37,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..scene import in_box
-from .types import TRIANGULATION, TargetRows
+from .types import TargetRows
 
 
 def identify_indicator(
@@ -164,7 +166,7 @@ class TargetSelector:
     def _challenge(self, t: int, f: int, stop: int, a: int, half: float, ended: dict[int, int],
                    out: np.ndarray) -> int:
         """Beyond the paper (``reidentify``): the first frame of ``f..stop`` at which another live
-        track qualified, better supported than the target ``t``, in more than Delta / 2 of the
+        track qualified, seen in more views than the target ``t``, in more than Delta / 2 of the
         last Delta frames takes over (a switch). Returns the last frame ``t`` keeps (``stop``
         when none takes over; else the frame before the take-over, whose frame is decided)."""
         q = self._ind & (self._tid != t) & (self._frame <= stop)
@@ -229,12 +231,13 @@ class TargetSelector:
         return f + k + 1
 
 
-def point_support(source: np.ndarray, wh: np.ndarray) -> np.ndarray:
-    """How well each track point is observed, for ``reidentify``: twice the number of views with a
-    detection of it, plus one when triangulated (Eq. 3) rather than a plane candidate.
-    source: (n,) source codes; wh: (n, C, 2) detection sizes (NaN: none). Returns (n,) int64."""
-    views = np.count_nonzero(~np.isnan(wh[:, :, 0]), axis=1) if wh.ndim == 3 else np.zeros(len(source), np.int64)
-    return 2 * views.astype(np.int64) + (np.asarray(source) == TRIANGULATION)
+def point_support(wh: np.ndarray) -> np.ndarray:
+    """How well each track point is observed, for ``reidentify``: the number of views with a
+    detection of it (triangulated or a plane candidate alike: see the module docstring).
+    wh: (n, C, 2) detection sizes (NaN: none). Returns (n,) int64."""
+    if wh.ndim != 3:
+        return np.zeros(len(wh), np.int64)
+    return np.count_nonzero(~np.isnan(wh[:, :, 0]), axis=1).astype(np.int64)
 
 
 def backfill(decision: np.ndarray, index: np.ndarray, track_id: np.ndarray, frames: int, since: int = 0,

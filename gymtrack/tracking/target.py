@@ -118,7 +118,7 @@ class TargetStage:
         if self.flights is not None:  # the target's track in flight: the parabola's points (.ballistic)
             rows = self.flights.extend(a, b, self.handover.flying(self.selector), rows)
         ind, inperf = identify_indicator(rows.xyz, rows.top_z, rows.bottom_z, self.perf, self.h_top, self.h_bot)
-        sup = point_support(rows.source, rows.wh) if self.selector.reidentify else None
+        sup = point_support(rows.wh) if self.selector.reidentify else None
         if self.handover is None:
             target = self.selector.select(a, b, rows.frame, rows.track_id, ind, inperf, ended, sup)  # (b-a+1,)
         else:  # the new track that takes up the target's as the old one for Eq. 13; the rows keep their ids
