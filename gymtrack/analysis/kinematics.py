@@ -21,6 +21,7 @@ from .joints import I
 __all__ = ["BODIES", "DE_LEVA", "HAND_OVER_FOREARM", "segment_table", "frame_angles", "centre_of_mass", "com_sd",
            "head_centre", "included", "mid", "vector_angle", "angle_sd"]
 
+
 def _j(X: np.ndarray, name: str) -> np.ndarray:
     return X[..., I[name], :]
 

@@ -38,8 +38,9 @@ EXTRA_POINTS: tuple[str, ...] = (
 POINT_NAMES = COCO_JOINTS + EXTRA_POINTS
 N_POINTS = len(POINT_NAMES)
 _I = {n: i for i, n in enumerate(POINT_NAMES)}
-_COM_IDX = np.array([_I[n] for n in com_weights()])
-_COM_W = np.array(list(com_weights().values()))
+_COM = com_weights()  # the analysis' centre-of-mass weights, by COCO joint name
+_COM_IDX = np.array([_I[n] for n in _COM])
+_COM_W = np.array(list(_COM.values()))
 
 #: Flesh radius of every point, metres, for a 1.70 m body (scaled with height).
 _PAD_170 = np.array(
