@@ -34,6 +34,7 @@ from gymtrack.simulate.routine import simulate_n_cams
 from gymtrack.tracking import offline
 from gymtrack.tracking.offline import track_detections
 from gymtrack.tracking.sync import estimate_offsets
+from gymtrack.tracking.turn_fit import degrees
 
 
 APPLIED: dict = {}  # the turns the offline second pass applied: {camera: (from frame, rotation)}
@@ -46,11 +47,6 @@ def _recording(*args):
 
 
 _pass, offline._track = offline._track, _recording
-
-
-def turn_error(R: np.ndarray, truth: np.ndarray) -> float:
-    """Degrees between the applied rotation and the true knock."""
-    return float(np.degrees(np.arccos(np.clip((np.trace(R @ truth.T) - 1) / 2, -1, 1))))
 
 
 def aed(sim, det, rig=None, recalibrate=True):
@@ -117,7 +113,7 @@ def main() -> None:
                         row = {"app": app, "seed": seed, "n_cam": n, "cam": cam, "deg": deg, "detected": bool(hit),
                                "other_events": len(ev) - len(hit), "events": ev, "aed_clean": clean,
                                "aed_knocked": plain, "aed_recal": fixed,
-                               "turn_error": None if applied is None else round(turn_error(applied[1], truth), 3),
+                               "turn_error": None if applied is None else round(degrees(applied[1] @ truth.T), 3),
                                "start_error": None if applied is None else applied[0] - mid}
                         knock_rows.append(row)
                         print("knock", row, flush=True)
