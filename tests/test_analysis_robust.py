@@ -125,7 +125,8 @@ def _heights(n1=10, gap=2, n2=10, fps=30.0, bounce=False, seed=0):
 
 
 def test_a_contact_that_leaves_the_parabola_unbroken_is_bridged():
-    from gymtrack.analysis.flights import bridge_contacts, find_flights
+    from gymtrack.analysis.contacts import bridge_contacts
+    from gymtrack.analysis.flights import find_flights
 
     frame, sup, z, sd = _heights()
     out, n = bridge_contacts(frame, sup, 30.0, z, sd)
@@ -142,7 +143,7 @@ def test_a_contact_is_bridged_where_the_joints_box_stays_on_the_parabola():
     """The box centre read as :func:`find_flights` reads it: a centre of mass 5 cm off the parabola
     (limbs moving in a body whose box centre flies ballistically, the simulator's) keeps the
     contact alone; the box centre on it bridges it; a box centre that a push moved keeps it."""
-    from gymtrack.analysis.flights import bridge_contacts
+    from gymtrack.analysis.contacts import bridge_contacts
 
     frame, sup, box, sd = _heights(seed=1)
     com = box + 0.05 * np.sin(np.linspace(0, 3 * np.pi, len(box)))
@@ -364,7 +365,7 @@ def test_a_quarter_second_contact_at_the_apex_is_bridged_past_blips_a_hang_is_no
     rises slowly, and the wrists read within reach of a rail for 7 rows (0.23 s), with a 2-row
     airborne blip among them; the centre of mass stays on its parabola: one flight. The same rows
     with the body stopped there (a hang: the bar holds it, its height constant) stay a contact."""
-    from gymtrack.analysis.flights import bridge_contacts
+    from gymtrack.analysis.contacts import bridge_contacts
 
     frame, sup, z, sd = _heights(n1=12, gap=7, n2=6, seed=2)
     sup[14:16] = 0  # the blip: 12..13 contact, 14..15 airborne, 16..18 contact

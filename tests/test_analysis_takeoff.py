@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from gymtrack.analysis.flights import flight_elements, held_handstand
-from gymtrack.analysis.support import FLOOR, NONE
+from gymtrack.analysis.contacts import settle_flights
+from gymtrack.analysis.flights import G, flight_elements, held_handstand, runs
+from gymtrack.analysis.support import FLOOR, NONE, TOUCH
 from gymtrack.simulate import elements as gt_elements
 
 FPS = 30.0
@@ -127,3 +128,50 @@ def test_a_noisy_flights_shape_is_read_as_held_over_a_sixth_of_a_second():
     # the held mean: NaN-aware, the ends average the frames the flight has
     x = np.array([[1.0, 2.0, np.nan, 4.0, 5.0]])
     np.testing.assert_allclose(held_angles(x, 3), [[1.5, 1.5, 3.0, 4.5, 4.5]])
+
+
+def _jump(n_air: int = 9, noise: float = 0.0, seed: int = 0):
+    """A jump sampled at FPS: standing rows 0..9, take-off contact at row 10 (the last row on the
+    floor, already on the parabola), rows 11..10+n_air airborne, landing contact at the next row,
+    then a stop. The joint nearest the floor leaves and meets it with the centre of mass, the contact
+    distance of the last approach reached only at the contact row (a short flight: 1.6 m/s at the
+    contacts, as hands onto a pommel horse's pommels)."""
+    T = (n_air + 1) / FPS
+    v0 = G * T / 2  # lands as high as it left
+    t = (np.arange(n_air + 2)) / FPS
+    z_air = 1.0 + v0 * t - G / 2 * t ** 2  # rows 10 .. 11 + n_air (both contacts on it)
+    com = np.concatenate([np.full(10, 1.0), z_air, np.full(10, 1.0)])
+    clear = com - 1.0
+    rng = np.random.default_rng(seed)
+    M = com.size
+    com_n = com + rng.normal(0, noise / 3, M)
+    clear_n = clear + rng.normal(0, noise, M)
+    sup = np.where(clear_n < TOUCH, FLOOR, NONE)
+    return np.arange(M), sup, clear_n, np.full(M, max(noise, 0.007)), com_n, np.full(M, max(noise / 3, 0.0025))
+
+
+def _airborne_run(sup):
+    air = np.flatnonzero(sup == NONE)
+    return int(air.min()), int(air.max())
+
+
+def test_a_flights_ends_move_to_the_contacts_through_the_touch_distance():
+    """The 0.10 m touch distance reads the body as on the floor for the first and last airborne rows;
+    with the joint still leaving or nearing the floor and the centre of mass on the parabola, the
+    flight runs from the row after the take-off contact to the row before the landing contact."""
+    frame, sup, clear, clear_sd, com, sz = _jump()
+    a, b = _airborne_run(sup)
+    assert a > 11 and b < 19  # the touch distance alone cuts the flight short at both ends
+    fl, sup2, moved = settle_flights(frame, sup, [(a, b)], clear, clear_sd, com, sz, FPS)
+    assert fl == [(11, 19)] and moved == (a - 11) + (19 - b)
+    assert np.all(sup2[11:20] == NONE) and sup2[10] == FLOOR and sup2[20] == FLOOR
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_settling_a_noisy_flight_never_takes_a_contact_row(seed):
+    """A markerless skeleton's noise (3 cm) hides the last centimetres: the flight may stay short,
+    but never reaches into the contacts."""
+    frame, sup, clear, clear_sd, com, sz = _jump(noise=0.03, seed=seed)
+    a, b = max(runs(sup == NONE, frame, max_gap=1), key=lambda r: r[1] - r[0])
+    (a2, b2), = settle_flights(frame, sup, [(a, b)], clear, clear_sd, com, sz, FPS)[0]
+    assert 11 <= a2 <= a and b <= b2 <= 19

@@ -7,8 +7,9 @@ the refinements of ``docs/analysis.md``.
 Order of work: the joints the measures need (:mod:`.joints`) -> support per frame from the raw
 joints (:mod:`.support`) -> joints filtered per support segment (:mod:`.filtering`) -> per-frame
 angles, centre of mass, somersault and twist (:mod:`.kinematics`, :mod:`.rotation`) on the
-measurement and on Monte Carlo samples of it (:mod:`.uncertainty`) -> elements (:mod:`.flights`,
-:mod:`.elements`) with the samples' spread as ``<measure>_sd``.
+measurement and on Monte Carlo samples of it (:mod:`.uncertainty`) -> contacts the body flew past
+bridged and the flights' take-offs and landings settled (:mod:`.contacts`) -> elements
+(:mod:`.flights`, :mod:`.elements`) with the samples' spread as ``<measure>_sd``.
 """
 
 from __future__ import annotations
@@ -26,11 +27,12 @@ from ..poses import Poses3D
 from ..scene import Scene
 from . import elements as E
 from .filtering import CUTOFF_HZ, SUPPORT_CUTOFF_HZ, segment_cutoffs, segments
-from .flights import bridge_contacts, find_flights, flight_elements, held_handstand
+from .contacts import bridge_contacts, settle_flights
+from .flights import find_flights, flight_elements, held_handstand
 from .joints import NEEDS, USED, gather, body_height
 from .kinematics import angle_sd, com_sd, mid
 from .rotation import heading
-from .support import foot_height, hands_may_hold, scene_geometry, support as support_codes
+from .support import clearance, foot_height, hands_may_hold, scene_geometry, support as support_codes
 from .uncertainty import SAMPLES, measure_samples
 
 __all__ = ["Analysis", "analyse"]
@@ -204,6 +206,8 @@ def analyse(poses3d: Poses3D, scene: Scene, track_id: int | None = None, *, fps:
     sup, bridged = bridge_contacts(frame, sup, fps, cols["com_z"][0], sigma_z, box_z)
     fl, lifted = find_flights(frame, sup, fps, cols["com_z"][0], box_z, sigma_z, com0, hands_may_hold(Xf, J.sigma, geo),
                               box[:, :2], cols["somersault"][0])
+    clear, clear_sd = clearance(Xf, geo, height, J.sigma)
+    fl, sup, settled = settle_flights(frame, sup, fl, clear, clear_sd, cols["com_z"][0], sigma_z, fps)
     # the angles' sd on the filtered joints: the low-pass keeps about cutoff / (fps / 2) of white noise's variance
     keep = np.sqrt(min(1.0, min(cutoff_hz, 0.4 * fps) / (fps / 2))) if cutoff_hz else 1.0
     axis = mid(Xf, "left_shoulder", "right_shoulder") - mid(Xf, "left_ankle", "right_ankle")  # A->S, the inclination's
@@ -223,7 +227,7 @@ def analyse(poses3d: Poses3D, scene: Scene, track_id: int | None = None, *, fps:
                "com_fallback_frames": int(np.sum(columns["com_fallback"])),
                "twist_disagree_frames": int(np.nansum(columns["twist_lines_disagree"])),
                "samples": samples, "airborne_runs_not_ballistic": len(lifted),
-               "contacts_bridged": bridged, **{f"{k}s": sum(e["kind"] == k for e in els) for k in
+               "contacts_bridged": bridged, "flight_rows_settled": settled, **{f"{k}s": sum(e["kind"] == k for e in els) for k in
                                       ("flight", "landing", "hold", "circle", "turn")}}
     if skipped:
         warnings.warn(f"{skipped} pose rows have none of the joints the analysis reads; left out", GymtrackWarning,

@@ -32,7 +32,6 @@ SHAPE_CLOSED, SHAPE_OPEN = 90.0, 135.0
 SHAPE_SDS = 2.0  #: a middle-half frame breaks a layout only this many sd under SHAPE_OPEN
 SHAPE_HELD_S = 1.0 / 6.0  #: s: a noisy measurement's shape is read as held over this long (5 frames at 30 Hz)
 SHAPE_NOISY_DEG = 5.0  #: deg: the angles' median sd from which a flight's shape is read as held
-CONTACT_MAX_S = 0.25  #: s: a contact this short between airborne runs is bridged if it changed nothing (a hand passing a rail near the apex, where the body rises slowly, reads within reach for up to 0.25 s)
 V_MAX = 12.0  #: m/s: the centre of mass moves no faster (a sprinter's top speed; a vault's run-up reaches 8-9)
 HANDSTAND = 150.0  #: degrees: the contract's handstand (its hold position)
 STILL_DEG_S = 45.0  #: deg/s: a long axis turning slower than this holds its position (a giant passes its handstand at 150+)
@@ -71,47 +70,6 @@ def fall_rate(t: np.ndarray, z: np.ndarray, sigma: float | np.ndarray = 0.0) -> 
     coef, *_ = np.linalg.lstsq(A, z[ok], rcond=None)
     cov = np.linalg.pinv(A.T @ A)
     return float(2 * coef[2]), float(2 * float(np.nanmax(s, initial=0.0)) * np.sqrt(cov[2, 2]))
-
-
-def bridge_contacts(frame: np.ndarray, support: np.ndarray, fps: float, com_z: np.ndarray,
-                    sigma_z: np.ndarray, box_z: np.ndarray | None = None) -> tuple[np.ndarray, int]:
-    """(support with the bridged rows set to NONE, how many contacts were bridged).
-
-    A contact of at most :data:`CONTACT_MAX_S` (airborne blips under :data:`MIN_FLIGHT_S` within it
-    included) between two airborne runs of a flight's length through which the centre of
-    mass -- or the centre of the joints' box ``box_z``, as :func:`find_flights` reads a flight --
-    stays on one parabola with g = 9.81 (weighted rms of the normalised residuals at most
-    :data:`PARABOLA_CHI`) changed nothing: a support pushes or stops the body, so this is a joint
-    measured near a surface the body flew past (a hand rising past the parallel bars' rail)."""
-    out = support.copy()
-    air = runs(support == NONE, frame)
-    n = 0
-    most = int(round(CONTACT_MAX_S * fps))
-    long = [(frame[b] - frame[a]) + 1 >= MIN_FLIGHT_S * fps - 1e-9 for a, b in air]
-    for i in range(len(air)):
-        if not long[i]:
-            continue
-        a1, b1 = air[i]
-        for j in range(i + 1, len(air)):  # the next airborne run that is a flight's, past any blips
-            if long[j]:
-                break
-        else:
-            continue
-        a2, b2 = air[j]
-        if a2 - b1 - 1 > most or np.any(np.diff(frame[b1:a2 + 1]) > 2):
-            continue
-        t, s = frame[a1:b2 + 1] / fps, sigma_z[a1:b2 + 1]
-        on_one = False
-        for z in (com_z[a1:b2 + 1], None if box_z is None else box_z[a1:b2 + 1]):
-            ok = np.isfinite(s) & (s > 0) & (np.isfinite(z) if z is not None else False)
-            if z is None or ok.sum() < 6:
-                continue
-            fit = parabola(t[ok] - t[ok][0], z[ok], 1.0 / s[ok])
-            on_one |= fit is not None and fit[2] <= PARABOLA_CHI
-        if on_one:
-            out[b1 + 1:a2] = NONE
-            n += 1
-    return out, n
 
 
 def _seen(frame, com, fps, i, j) -> bool:

@@ -158,19 +158,11 @@ def support(X: np.ndarray, geo: Geometry, height: float, frame: np.ndarray | Non
         touch = np.broadcast_to(touch, X.shape[:2]).copy()
         touch[:, list(ANKLES)] += TOE * _still(X[:, list(ANKLES), 2], frame, fps)
     with np.errstate(invalid="ignore"):
-        floor = X[..., 2] - sole
-        # hands and feet hold and stand; the other joints rest on top (shoulders rising between the
-        # parallel bars' rails, or legs swinging past the low bar, touch nothing); a joint sweeping
-        # past a bar or rail faster than GRIP_STILL does not hold it
-        body = np.ones(X.shape[1], bool)
-        body[list(WRISTS + ANKLES)] = False
-        grasp = apparatus_distance(X, geo, bars="grasp")
-        grasp[:, body] = apparatus_distance(X[:, body], geo, on_top=True, bars="grasp")
+        floor, grasp, solid = _distances(X, geo, sole)
+        # a joint sweeping past a bar or rail faster than GRIP_STILL does not hold it
         if frame is not None and len(frame) > 1:
             grasp = np.where(_slow(X, frame, fps, GRIP_STILL), grasp, np.inf)
-        solid = apparatus_distance(X, geo, bars="solid")
-        solid[:, body] = apparatus_distance(X[:, body], geo, on_top=True, bars="solid")
-        app = np.minimum(grasp, solid) - sole
+        app = np.minimum(grasp, solid)
         on_app = np.any(np.nan_to_num(app, nan=np.inf) < touch, axis=1)
         on_floor = np.any(np.nan_to_num(floor, nan=np.inf) < touch, axis=1)
     codes = np.where(on_app, APPARATUS, np.where(on_floor, FLOOR, NONE)).astype(np.int8)
@@ -182,6 +174,36 @@ def support(X: np.ndarray, geo: Geometry, height: float, frame: np.ndarray | Non
             reach = TOUCH if sigma is None else TOUCH + HOLD_SDS * np.nan_to_num(sigma[:, list(WRISTS)])
             grip = np.all(np.nan_to_num(d, nan=np.inf).min(-1) < reach, axis=1)  # each hand on a bar or ring
     return codes, grip
+
+
+def _distances(X: np.ndarray, geo: Geometry, sole: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(M, K) each joint's distance (m, the ankles' from the sole) to the floor, to the bars and rings a
+    hand holds, and to the other apparatus surfaces. Hands and feet hold and stand; the other joints
+    rest on top only (shoulders rising between the parallel bars' rails, or legs swinging past the low
+    bar, touch nothing)."""
+    body = np.ones(X.shape[1], bool)
+    body[list(WRISTS + ANKLES)] = False
+    with np.errstate(invalid="ignore"):
+        grasp = apparatus_distance(X, geo, bars="grasp")
+        grasp[:, body] = apparatus_distance(X[:, body], geo, on_top=True, bars="grasp")
+        solid = apparatus_distance(X, geo, bars="solid")
+        solid[:, body] = apparatus_distance(X[:, body], geo, on_top=True, bars="solid")
+        return X[..., 2] - sole, grasp - sole, solid - sole
+
+
+def clearance(X: np.ndarray, geo: Geometry, height: float, sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(M,) the distance (m) from the joint nearest a surface it can touch to that surface, as
+    :func:`support` measures it, and (M,) that joint's position sd (``sigma`` (M, K) m); NaN where a
+    row has no joint."""
+    sole = np.zeros(X.shape[1])
+    if np.isfinite(height):
+        sole[list(ANKLES)] = SOLE * height
+    d = np.fmin.reduce(np.stack(_distances(X, geo, sole)), axis=0)
+    d = np.where(np.isfinite(d), d, np.inf)
+    k = np.argmin(d, axis=1)
+    rows = np.arange(len(X))
+    best = d[rows, k]
+    return np.where(np.isfinite(best), best, np.nan), np.asarray(sigma, float)[rows, k]
 
 
 def hands_may_hold(X: np.ndarray, sigma: np.ndarray, geo: Geometry) -> np.ndarray:

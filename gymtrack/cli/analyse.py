@@ -82,5 +82,8 @@ def analyse(
     console.print(f"{s['rows']} poses, {s['flights']} flights, {s['holds']} holds, {s['circles']} circles, {s['turns']} turns"
                   + (f"; {s['rows_without_joints']} rows without joints left out" if s["rows_without_joints"] else "")
                   + (f"; {s['airborne_runs_not_ballistic']} runs off every surface that do not fall freely (not flights)"
-                     if s["airborne_runs_not_ballistic"] else ""), highlight=False)
+                     if s["airborne_runs_not_ballistic"] else "")
+                  + (f"; {s['flight_rows_settled']} rows next to flights read airborne (a joint within 0.10 m of its surface "
+                     "still moving to or from it, the centre of mass on the flight's parabola)" if s.get("flight_rows_settled") else ""),
+                  highlight=False)
     console.print(f"wrote [bold]{Path(out) / 'analysis'}[/]")
