@@ -133,3 +133,15 @@ def test_definitions_check_on_a_pommel_dismount(apparatus, seed, tmp_path):
     dismount = max((e for e in jt.elements["elements"] if e["kind"] == "flight"), key=lambda e: e["start_frame"])
     # from the handstand it leaves from, over the horse to the stand beyond it: half a revolution
     assert abs(dismount["saltos"]) == 0.5
+
+
+def test_dense_bins_pool_to_the_same_medians_as_the_sparse_ones():
+    from gymtrack.eval.judging import _MIDS, dense_parts
+
+    rng = np.random.default_rng(4)
+    hists = [angle_histograms({"left_knee": rng.exponential(8.0, k).tolist()})["left_knee"] for k in (7, 10, 1)]
+    for some in (hists[:1], hists[:2], hists):  # 7 (odd), 17 (odd) and 18 (even) values
+        mids = [_MIDS[int(i)] for h in some for i, k in h["bins"].items() for _ in range(k)]
+        assert histogram_stats(some)["median"] == float(np.median(mids))  # the binned values' own median
+        dense = [dense_parts({"angles": {"left_knee": h}})["angles"]["left_knee"] for h in some]
+        assert histogram_stats(dense) == histogram_stats(some)

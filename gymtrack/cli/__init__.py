@@ -106,7 +106,7 @@ def _root(
 try:
     from . import options  # noqa: E402,F401  (first: its help patch applies to every command)
     from . import info, simulate, track, benchmark, pose, eval, fit_plane, detect, run, models, view, batch  # noqa: E402,F401
-    from . import export, analyse, sync  # noqa: E402,F401
+    from . import export, analyse, sync, benchmark_pool  # noqa: E402,F401
     _interrupts.defer_during_numba()  # numba is imported by now (geometry)
 except BaseException:
     if _interrupts.pending():

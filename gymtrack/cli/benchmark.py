@@ -162,7 +162,7 @@ def benchmark(
     no_pose: bool = typer.Option(False, "--no-pose", help="skip the target's 3D pose (Fig. 7 table, lifting ablation)"),
     mvor: Optional[Path] = typer.Option(None, "--mvor", help="MVOR folder for the real-keypoints pose section (default: $GYMTRACK_MVOR or shared/data/mvor above the project; skipped with a note if absent)"),
     seeds: Optional[str] = typer.Option(None, "--seeds", help="comma-separated base seeds, e.g. 0,1,2: one default suite "
-                                        "per seed (OUT/suite-s<seed>, simulated unless there), pooled; the headline figures "
+                                        "per seed (OUT/suite-s<seed>, simulated unless there), pooled; the headline figures and judging targets "
                                         "get 90 % bootstrap intervals over routines"),
     n_cams: Optional[str] = typer.Option(None, "--n-cams", help="comma-separated: only the suite's routines with these "
                                          "n_cam (e.g. 2)"),
@@ -264,14 +264,15 @@ def benchmark(
         if not mv.get("available"):
             console.print(f"[yellow]{mv['note']}[/]")
     from gymtrack.eval.explain import explain_markdown
-    from gymtrack.eval.pooled import pooled_markdown
+    from gymtrack.eval.pool_outputs import pooled_results
 
-    pooled_md = pooled_markdown(run.rows)
+    pooled_mds, pooled_recs = pooled_results(run.rows)  # the judging targets' part is empty without judged rows (--no-pose)
     explain_md = explain_markdown(run.rows)
     meta = {"suite": str(suite) + (f" (seeds {', '.join(map(str, seed_list))})" if seed_list else ""), "methods": ", ".join(method_list)}
-    files = write_benchmark(run, out, meta=meta, wildtrack=wt, mvor=mv, dropout=drop, sections=[pooled_md, explain_md])
+    files = write_benchmark(run, out, meta=meta, wildtrack=wt, mvor=mv, dropout=drop, sections=[*pooled_mds, explain_md],
+                            results=pooled_recs)
     found = print_summary(run.rows)
-    console.print(pooled_md, highlight=False)
+    console.print("\n".join(pooled_mds), highlight=False)
     if "cascade+" in method_list:
         from gymtrack.eval.plus_claims import plus_claims
         from gymtrack.eval.render import fmt

@@ -404,10 +404,11 @@ def run_suite(
 
 def write_benchmark(run: BenchmarkRun, out: str | Path, meta: dict | None = None, wildtrack: dict | None = None,
                     mvor: dict | None = None, dropout: tuple[str, list[dict]] | None = None,
-                    sections: Sequence[str] = ()) -> dict[str, Path]:
+                    sections: Sequence[str] = (), results: dict[str, list[dict]] | None = None) -> dict[str, Path]:
     """Write the report, tables, JSON and the Fig. 6 plots of a run under ``out`` (with the pose
     section; ``dropout``: the camera drop-out section's markdown and rows, :mod:`.dropout`, also
-    written to ``dropout.csv``; ``sections``: more markdown sections, appended)."""
+    written to ``dropout.csv``; ``sections``: more markdown sections, appended; ``results``: more
+    record lists, each written to ``<name>.csv`` and results.json)."""
     from .judging import judging_markdown
     from .pose_bench import pose_markdown, pose_tables
     from .render import plot_target_trajectories, write_csv, write_report
@@ -434,7 +435,7 @@ def write_benchmark(run: BenchmarkRun, out: str | Path, meta: dict | None = None
             **(meta or {})}
     extra = "\n\n".join(x for x in (pose_markdown(run.rows, mvor), judging_markdown(run.rows), wildtrack_markdown(wildtrack) if wildtrack else None,
                                      dropout[0] if dropout is not None else None, *sections) if x)
-    files = write_report(out, run.rows, meta, plots, extra, wildtrack)
+    files = write_report(out, run.rows, meta, plots, extra, wildtrack, results=results)
     files["pose"] = write_csv(out / "pose_fig7.csv", pose_tables(run.rows)["fig7"])
     if dropout is not None and dropout[1]:
         files["dropout"] = write_csv(out / "dropout.csv", dropout[1])

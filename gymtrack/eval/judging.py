@@ -37,7 +37,7 @@ from .elements import SCORED_ANGLES, angle_parts, element_parts, summarise_eleme
 from .render import markdown_table
 
 __all__ = ["JUDGE_METHODS", "JudgingTruth", "truth_poses", "judging_columns", "judging_tables", "judging_claims",
-           "judging_markdown", "judging_line", "angle_histograms", "histogram_stats", "HEADER"]
+           "judging_markdown", "judging_line", "angle_histograms", "histogram_stats", "dense_parts", "HEADER"]
 
 JUDGE_METHODS: tuple[str, ...] = ("cascade+", "cascade", "triangulation", "oracle")
 TRUTH = "ground-truth skeleton"
@@ -162,9 +162,30 @@ def histogram_stats(hists: Sequence[dict]) -> dict[str, float | int]:
         return {"median": float("nan"), "mean": mean, "n": n}
     counts = np.zeros(_MIDS.size, np.int64)
     for h in hists:
+        if isinstance(h["bins"], np.ndarray):  # dense (:func:`dense_parts`)
+            counts += h["bins"]
+            continue
         for i, k in h["bins"].items():
             counts[int(i)] += k
-    return {"median": float(np.median(np.repeat(_MIDS, counts))), "mean": mean, "n": n}
+    # the median of the bin midpoints repeated by their counts (the middle one, or the two middle ones' mean)
+    total = int(counts.sum())
+    cum = np.cumsum(counts)
+    mid = _MIDS[np.searchsorted(cum, [(total - 1) // 2, total // 2], side="right")]
+    return {"median": float((mid[0] + mid[1]) / 2), "mean": mean, "n": n}
+
+
+def dense_parts(parts: dict) -> dict:
+    """``judge_parts`` (a parsed copy) with each histogram's bins as one dense count array: the
+    same pooled values, faster when the same rows are pooled many times (the bootstrap)."""
+    angles = {}
+    for c, h in parts["angles"].items():
+        if isinstance(h.get("bins"), dict):
+            counts = np.zeros(_MIDS.size, np.int64)
+            for i, k in h["bins"].items():
+                counts[int(i)] += k
+            h = {**h, "bins": counts}
+        angles[c] = h
+    return {**parts, "angles": angles}
 
 
 # ----------------------------------------------------------------------------- pooling
@@ -187,9 +208,10 @@ def _pool(parts: list[dict]) -> dict:
     return el
 
 
-def judging_tables(rows: Sequence[dict]) -> dict[str, Any]:
+def judging_tables(rows: Sequence[dict], pools: Sequence[str] = ("cells", "overall", "truth")) -> dict[str, Any]:
     """Pooled scores: ``cells`` per (apparatus, n_cam, method), ``overall`` per (n_cam, method) over
-    apparatus, ``truth`` per apparatus and overall (the definitions check), ``errors`` (failed analyses)."""
+    apparatus, ``truth`` per apparatus and overall (the definitions check), ``errors`` (failed analyses);
+    ``pools``: the tables pooled (the others are left empty)."""
     cell: dict[tuple, list] = {}
     overall: dict[tuple, list] = {}
     truth: dict[str, list] = {}
@@ -204,8 +226,8 @@ def judging_tables(rows: Sequence[dict]) -> dict[str, Any]:
         if t is not None:
             truth.setdefault(r["apparatus"], []).append(t)
             truth.setdefault("all", []).append(t)
-    return {"cells": {k: _pool(v) for k, v in cell.items()}, "overall": {k: _pool(v) for k, v in overall.items()},
-            "truth": {k: _pool(v) for k, v in truth.items()}, "errors": errors}
+    return {name: {k: _pool(v) for k, v in found.items()} if name in pools else {}
+            for name, found in (("cells", cell), ("overall", overall), ("truth", truth))} | {"errors": errors}
 
 
 def _claim(name: str, value: float, limit: float, ok: bool, detail: str) -> Claim:
@@ -215,7 +237,7 @@ def _claim(name: str, value: float, limit: float, ok: bool, detail: str) -> Clai
 
 def judging_claims(rows: Sequence[dict], config: BenchmarkConfig = DEFAULT_CONFIG, method: str = "cascade+") -> list[Claim]:
     """The issue's judging targets for ``method`` (pooled over apparatus), PASS / FAIL / n/a."""
-    t = judging_tables(rows)["overall"]
+    t = judging_tables(rows, pools=("overall",))["overall"]
     c = config
     out = []
 

@@ -15,6 +15,15 @@ one simulated suite to the next, so the benchmark pools the rows of suites of di
   ``(1 - level) / 2`` and ``(1 + level) / 2`` percentiles of the draws.
 
 Arrays: for one n_cam and apparatus, ``(R, M)`` sums per routine and method; draws ``(B, R)``.
+
+The judging targets (:func:`.judging.judging_claims`, Section III-D's measurements for the judges)
+get the same treatment (:func:`pooled_judging`): the claims' own statistic on all rows, then on
+each draw that resamples the routines within each (n_cam, apparatus) with every method's row of
+a routine together. A draw re-pools every element and angle histogram of the drawn rows (about
+0.1 s for three 28-routine suites), hence fewer draws by default (1000).
+
+A suite is a row's ``suite`` field when it has one (``gymtrack benchmark-pool``:
+:mod:`.pool_outputs`), else its routine name's ``s<seed>/`` prefix.
 """
 
 from __future__ import annotations
@@ -28,7 +37,8 @@ import numpy as np
 from ..apparatus import APPARATUS_NAMES
 from .aggregate import N_CAMS, ok_rows, present
 
-__all__ = ["Ratio", "HEADLINES", "bootstrap_ratio", "pooled_ratios", "pooled_markdown"]
+__all__ = ["Ratio", "HEADLINES", "bootstrap_ratio", "pooled_ratios", "pooled_markdown", "PooledClaim", "pooled_judging",
+           "pooled_judging_markdown", "suite_of"]
 
 #: (name, kind, numerator method, denominator method or None); kind: fr | aed | mota | idf1
 HEADLINES: tuple[tuple[str, str, str, str | None], ...] = (
@@ -113,6 +123,14 @@ def bootstrap_ratio(groups: Sequence[np.ndarray], kind: str, n_boot: int = 2000,
     return point, float(lo), float(hi)
 
 
+def suite_of(row: dict) -> str:
+    """The suite a row belongs to: its ``suite`` field, else its routine name's ``s<seed>/`` prefix ("" without)."""
+    if row.get("suite"):
+        return str(row["suite"])
+    m = re.match(r"s(\d+)/", str(row["routine"]))
+    return m.group(1) if m else ""
+
+
 def _parts(row: dict, kind: str) -> tuple[float, float]:
     if kind in _PARTS:
         a, b = _PARTS[kind]
@@ -143,8 +161,7 @@ def pooled_ratios(rows: Sequence[dict], n_boot: int = 2000, level: float = 0.9, 
                         continue
                     den = _parts(ms[b], kind) if b is not None else (np.nan, np.nan)
                     g.append([_parts(ms[a], kind), den])
-                    m = re.match(r"s(\d+)/", routine)
-                    seeds.add(m.group(1) if m else "")
+                    seeds.add(suite_of(ms[a]))
                 if g:
                     groups.append(np.array(g))
                     count += len(g)
@@ -169,7 +186,7 @@ def pooled_markdown(rows: Sequence[dict], level: float = 0.9, n_boot: int = 2000
             f"Each figure as the report averages it (per apparatus pooled, then the mean over apparatus); the "
             f"interval resamples routines within each apparatus ({n_boot} draws, seed {seed}), every method's "
             f"row of a routine together. Routines: routines with both methods; suites: suites of distinct seeds "
-            f"(the routine names' ``s<seed>/`` prefixes of ``--seeds``).\n\n" + markdown_table(["figure", "n_cam", f"value [{pct} % interval]", "routines", "suites"], body))
+            f"(the routine names' ``s<seed>/`` prefixes of ``--seeds``; ``benchmark-pool``: each output, or each seed of one).\n\n" + markdown_table(["figure", "n_cam", f"value [{pct} % interval]", "routines", "suites"], body))
     per = []
     heads = (("FR cascade+", "fr", "cascade+", None), ("FR cascade", "fr", "cascade", None), ("FR oracle", "fr", "oracle", None))
     for app in present(rows, "apparatus", APPARATUS_NAMES):
@@ -187,3 +204,93 @@ def _fmt(r: Ratio, pct: bool | None = None) -> str:
     if pct:
         return f"{100 * r.value:.2f} % [{100 * r.low:.2f}, {100 * r.high:.2f}]"
     return f"{r.value:.3f} [{r.low:.3f}, {r.high:.3f}]"
+
+
+# ----------------------------------------------------------------------------- judging targets
+@dataclass(frozen=True)
+class PooledClaim:
+    """A judging target pooled over suites: the claim on all rows and its bootstrap interval."""
+
+    name: str
+    value: float
+    low: float
+    high: float
+    limit: float
+    status: str  #: the pooled value's PASS / FAIL / n/a
+    passing: float  #: share of the draws (with a value) whose claim passes
+    detail: str
+    routines: int  #: routines with a judged row (all n_cam)
+    suites: int
+
+    def as_dict(self) -> dict:
+        return dict(self.__dict__)
+
+
+def _judged_strata(rows: Sequence[dict]) -> list[list[list[dict]]]:
+    """Per (n_cam, apparatus), per routine, its rows with ``judge_parts`` (parsed, dense bins)."""
+    from .judging import _load, dense_parts
+
+    strata: dict[tuple[int, str], dict[str, list[dict]]] = {}
+    for r in rows:
+        p = _load(r.get("judge_parts"))
+        if p is None:
+            continue
+        keep = {k: r[k] for k in ("routine", "apparatus", "method")} | {"n_cam": int(r["n_cam"]), "judge_parts": dense_parts(p),
+                                                                       "suite": suite_of(r)}
+        strata.setdefault((keep["n_cam"], r["apparatus"]), {}).setdefault(r["routine"], []).append(keep)
+    return [list(strata[k].values()) for k in sorted(strata)]
+
+
+def pooled_judging(rows: Sequence[dict], n_boot: int = 1000, level: float = 0.9, seed: int = 0, config=None) -> list[PooledClaim]:
+    """Every judging target of :func:`.judging.judging_claims` on the pooled rows, with its percentile
+    interval over ``n_boot`` draws (routines resampled within each n_cam and apparatus, a routine's
+    method rows together); empty when no row has ``judge_parts``."""
+    from .config import DEFAULT_CONFIG
+    from .judging import judging_claims
+
+    config = DEFAULT_CONFIG if config is None else config
+    strata = _judged_strata(rows)
+    if not strata:
+        return []
+    flat = [r for s in strata for routine in s for r in routine]
+    point = judging_claims(flat, config)
+    names = [c.name for c in point]
+    values = np.full((n_boot, len(point)), np.nan)
+    passing = np.zeros((n_boot, len(point)), bool)
+    rng = np.random.default_rng(seed)
+    for b in range(n_boot):
+        drawn = [r for s in strata for i in rng.integers(0, len(s), len(s)) for r in s[i]]
+        got = {c.name: c for c in judging_claims(drawn, config)}
+        for j, name in enumerate(names):
+            c = got.get(name)  # the last target's name changes when a draw lacks cascade or triangulation at n_cam 2
+            if c is not None:
+                values[b, j], passing[b, j] = c.value, c.status == "PASS"
+    routines = sum(len(s) for s in strata)
+    suites = len({r["suite"] for r in flat})
+    out = []
+    for j, c in enumerate(point):
+        ok = np.isfinite(values[:, j])
+        lo, hi = np.percentile(values[ok, j], [50 * (1 - level), 50 * (1 + level)]) if ok.any() else (np.nan, np.nan)
+        out.append(PooledClaim(c.name, c.value, float(lo), float(hi), c.limit, c.status,
+                               float(passing[ok, j].mean()) if ok.any() else float("nan"), c.detail, routines, suites))
+    return out
+
+
+def pooled_judging_markdown(found: Sequence[PooledClaim], level: float = 0.9, n_boot: int = 1000, seed: int = 0) -> str:
+    """The judging targets of :func:`pooled_judging` as a markdown section ("" without any)."""
+    from .render import markdown_table
+
+    if not found:
+        return ""
+    pct = int(round(100 * level))
+    def g(v: float) -> str:
+        return "-" if not np.isfinite(v) else f"{v:.3g}"
+
+    body = [[c.name, f"{g(c.value)} [{g(c.low)}, {g(c.high)}]", g(c.limit), f"**{c.status}**",
+             "-" if not np.isfinite(c.passing) else f"{100 * c.passing:.0f} %", c.detail] for c in found]
+    return (f"## Judging targets pooled over suites ({pct} % bootstrap intervals over routines)\n\n"
+            f"The judging targets (cascade+, pooled over apparatus as in the judging section) on the rows of every suite "
+            f"together ({found[0].routines} judged routines of {found[0].suites} suite(s)); the interval resamples the routines "
+            f"within each n_cam and apparatus ({n_boot} draws, seed {seed}), every method's row of a routine together. "
+            f"Draws passing: the share of draws whose target is met.\n\n"
+            + markdown_table(["target", f"value [{pct} % interval]", "limit", "result", "draws passing", "detail"], body) + "\n")

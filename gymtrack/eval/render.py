@@ -171,8 +171,9 @@ def _jsonable(v: Any) -> Any:
 
 def write_report(out: str | Path, rows: Sequence[dict], meta: dict | None = None, plots: Sequence[str] = (),
                  wildtrack_md: str | None = None, wildtrack: dict | None = None,
-                 config: BenchmarkConfig = DEFAULT_CONFIG) -> dict[str, Path]:
-    """Write report.md, rows.csv, table3/5/6.csv, claims.csv and results.json under ``out``."""
+                 config: BenchmarkConfig = DEFAULT_CONFIG, results: dict[str, list[dict]] | None = None) -> dict[str, Path]:
+    """Write report.md, rows.csv, table3/5/6.csv, claims.csv and results.json under ``out``;
+    ``results``: more record lists (e.g. the pooled figures), each as ``<name>.csv`` and under its name in results.json."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     files = {
@@ -186,12 +187,15 @@ def write_report(out: str | Path, rows: Sequence[dict], meta: dict | None = None
     plus = plus_claims(rows, wildtrack, config) if any(r.get("method") == "cascade+" for r in rows) else []
     if plus:
         files["plus_claims"] = write_csv(out / "plus_claims.csv", [c.as_dict() for c in plus])
+    for name, recs in (results or {}).items():
+        if recs:
+            files[name] = write_csv(out / f"{name}.csv", recs)
     files["report"].write_text(report_markdown(rows, meta, plots, wildtrack_md, config, plus))
     files["json"] = out / "results.json"
     files["json"].write_text(json.dumps(_jsonable({
         "meta": meta or {}, "rows": list(rows), "table3": table3(rows), "table5": table5(rows), "table6": table6(rows),
         "ratios": ratios(rows), "claims": [c.as_dict() for c in claims(rows, config)], "wildtrack": wildtrack,
-        "plus_claims": [c.as_dict() for c in plus],
+        "plus_claims": [c.as_dict() for c in plus], **(results or {}),
     }), indent=1))
     return files
 
