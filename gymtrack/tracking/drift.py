@@ -10,8 +10,11 @@ or late camera moves the keys it is involved in (its own, and the others' throug
 in) and no other: the camera whose involved keys moved, against the keys not involving it, is named.
 
 - A knocked camera (turned about its centre) moves all its points by the same small rotation:
-  each key's median residual over the last second shifts from its median of the five seconds
-  before, by what that rotation predicts -- its own keys by the turn itself, the keys of the
+  each key's median residual over the samples since the move shifts from its median of the five
+  seconds before, by what that rotation predicts (the move's sample is not known: the scan of
+  :mod:`.drift_scan` weighs each length from one to three seconds by the evidence a step that
+  long has, and keeps the strongest; a half-degree knock, about two of a sample's scatters, is
+  named by its mean over two or three seconds where one second's mean misses it) -- its own keys by the turn itself, the keys of the
   pairs it is in by how their triangulated point moves -- and the keys not involving it stay.
   The rotation of each camera alone is fitted to all keys' shifts (in their scatter); the camera
   whose turn explains them clearly best is named. A turn moves every key the camera is in, as
@@ -40,9 +43,10 @@ import warnings
 import numpy as np
 
 from ..errors import GymtrackWarning
-from ..geometry.camera import Camera, Rig
+from ..geometry.camera import Rig
 from ._kernels import drift as kernels
-from .turn_fit import TurnEvidence, degrees as _degrees, fit_rotation, rotation as _rotation
+from .drift_scan import scan_steps
+from .turn_fit import TurnEvidence, degrees as _degrees, fit_rotation, rotation as _rotation, turn_pixels
 
 __all__ = ["DriftMonitor", "turn_pixels", "fit_rotation"]
 
@@ -51,7 +55,8 @@ BASELINE_SECONDS = 5.0  # the seconds of residuals before the last one: where th
 #: give up to 0.67 frames (the demo's high bar: 0.53-0.60; later 0.30, edge-cut boxes out) and a camera one frame late 0.2-0.75,
 #: so one frame is left to ``gymtrack sync``; three frames late give 1.5 or more
 SYNC_MIN_FRAMES = 1.0
-RECENT_SECONDS = 1.0  # a camera's residuals must have moved for this long
+RECENT_SECONDS = 1.0  # a camera's residuals must have moved for this long (the scale of the evidence's z)
+SCAN_SECONDS = 3.0  # a step's evidence pooled over up to this long since it (:mod:`.drift_scan`)
 EVERY_WINDOWS = 3  # windows pooled into a sample (enough points for a steady median)
 MIN_DEG = 0.3  # the smallest turn reported (pan and tilt)
 SIGMA_MIN = float(np.radians(0.05))  # the least scatter of a sample's median residual (radians)
@@ -78,17 +83,6 @@ HOLD, HOLD_SECONDS = 3.5, 2.0
 FULL_SAMPLES = 1  # samples wholly after a move that its turn is fitted to
 MAX_RESIDUAL = 0.05  # radians (3 deg): a larger residual is a wrong association, not drift
 MIN_POINTS = 8  # points of a camera x pair in a sample for its median to count
-
-
-def turn_pixels(cam: Camera, uv: np.ndarray, rotation: np.ndarray) -> np.ndarray:
-    """(n, 2) raw pixels of ``cam`` -> where they lie after the camera turned by ``rotation`` (3, 3,
-    camera coordinates) about its centre: every ray turns by ``rotation`` (distortion undone, then
-    applied again)."""
-    if not len(uv):
-        return np.asarray(uv, dtype=np.float64)
-    x = cam.undistort(uv)
-    ray = np.c_[x, np.ones(len(x))] @ np.linalg.inv(cam.K).T
-    return cam.project(cam.centre + (ray @ rotation.T) @ cam.R)
 
 
 def _small_turn(axis: int, eps: float) -> np.ndarray:
@@ -121,6 +115,7 @@ class DriftMonitor:
         every = step * EVERY_WINDOWS  # frames between samples
         self.n_base = max(3, int(round(BASELINE_SECONDS * fps / every)))
         self.n_recent = max(2, int(round(RECENT_SECONDS * fps / every)))
+        self.n_scan = max(self.n_recent, int(round(SCAN_SECONDS * fps / every)))
         self.step, self.window_step, self._windows = every, step, 0
         self._rows: list = []  # the residual rows of the windows since the last sample
         # the view pairs that triangulate (not opposite: ill-conditioned there); a camera is judged
@@ -134,7 +129,7 @@ class DriftMonitor:
         key_pair = np.tile(np.arange(Np), C)
         self.involves = np.stack([(self.key_camera == c) | (self.pairs[0][key_pair] == c) | (self.pairs[1][key_pair] == c)
                                   for c in range(C)])  # (C, C * Np)
-        L = self.n_base + self.n_recent
+        L = self.n_base + self.n_scan
         self.meds = np.full((C * Np, L, 2), np.nan)  # per camera x pair: the last L samples' median residual
         self.frames = np.zeros(L, np.int64)  # each sample's last frame
         self.samples: list = [None] * L  # each sample's (start (C * Np + 1,), world points, where seen) by camera x pair
@@ -189,11 +184,11 @@ class DriftMonitor:
                 ev.add(self.samples[-1], int(self.frames[-2]) + 1, self.turns[c])
         self._check()
 
-    def _steps(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Per camera x pair: the shift (2,) of the last second's median residual from the median of
-        the seconds before (radians; 0 where not judged), the scatter of those seconds' medians
-        (inf where not judged), and the baseline (2,)."""
-        return kernels.steps(self.meds, self.n_base, SIGMA_MIN)
+    def _steps(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
+        """Per camera x pair: the shift (2,) of the recent samples' mean residual from the median of
+        the seconds before (radians; 0 where not judged), what it is weighed in and one sample's
+        scatter (inf where not judged), the baseline (2,); the recent samples (:func:`.scan_steps`)."""
+        return scan_steps(self.meds, self.n_base, self.n_recent, SIGMA_MIN, CAP)
 
     def _jacobian(self, c: int, k: int, X: np.ndarray, seen: np.ndarray) -> np.ndarray:
         """(2, 3) how key ``k``'s residual moves as camera ``c`` (involved in it) turns by a small
@@ -223,14 +218,15 @@ class DriftMonitor:
         J = -(seen_j[1:] - seen_j[0]).T
         return J / eps
 
-    def _fit(self, shift: np.ndarray, sigma: np.ndarray, keys: np.ndarray) -> list:
+    def _fit(self, shift: np.ndarray, sigma: np.ndarray, keys: np.ndarray, recent: int) -> list:
         """Per camera: (misfit, turn (3,), own, pred) -- the rotation of that camera alone that best
         explains the keys' shifts (in their scatter; a robust fit, a prior on the roll), what it
         leaves unexplained (each key's share capped), its own keys' smallest shift (scatters), and
-        the shift (Nk, 2) it predicts for every key (0 for the keys it is not in)."""
+        the shift (Nk, 2) it predicts for every key (0 for the keys it is not in); ``recent``: the
+        samples the shifts are of."""
         rep = {}  # each judged key's median point and where it was seen, over the recent samples
         for k in keys:
-            got = [(q[1][q[0][k]:q[0][k + 1]], q[2][q[0][k]:q[0][k + 1]]) for q in self.samples[self.n_base:] if q is not None]
+            got = [(q[1][q[0][k]:q[0][k + 1]], q[2][q[0][k]:q[0][k + 1]]) for q in self.samples[-recent:] if q is not None]
             X, S = np.concatenate([g[0] for g in got]), np.concatenate([g[1] for g in got])
             if len(X):
                 rep[k] = (np.median(X, axis=0), np.median(S, axis=0))
@@ -263,7 +259,7 @@ class DriftMonitor:
         camera's; named, then reported once its turn held (:meth:`_confirm`)."""
         if self._named is not None:
             return self._confirm()
-        shift, sigma, base = self._steps()
+        shift, sigma, scatter, base, m = self._steps()
         ready = np.isfinite(sigma)
         z2 = np.where(ready, (shift ** 2).sum(axis=1) / sigma ** 2, 0.0)
         chi0 = np.minimum(CAP, z2).sum()
@@ -272,7 +268,7 @@ class DriftMonitor:
         own_moved = [(z2[own[ready[own]]] >= OWN_HELD ** 2).all() for own in self._own if ready[own].any()]
         if chi0 < EVIDENCE and not any(own_moved):
             return  # (neither rule can pass: the fit would be wasted)
-        fits, chi0 = self._fit(shift, sigma, np.flatnonzero(ready))
+        fits, chi0 = self._fit(shift, sigma, np.flatnonzero(ready), m)
         misfit = np.array([f[0] for f in fits])
         c = int(np.argmin(misfit))
         _, w, own, pred = fits[c]
@@ -286,13 +282,13 @@ class DriftMonitor:
         step = float(np.linalg.norm(shift[k]))
         dev = np.linalg.norm(self.meds[k] - base[k], axis=1)
         moved = dev > step / 2  # (NaN: not moved)
-        first = self.n_base  # the first sample of the run of moved samples reaching into the last second
+        first = len(self.frames) - self.n_recent  # the first sample of the run of moved samples reaching into the last second
         while first > 0 and moved[first - 1]:
             first -= 1
         # named: reported once its turn held (HOLD) and FULL_SAMPLES samples after the first moved one (which may
         # hold frames from before the move) have come, the turn fitted to those
         self._named = (c, int(self.frames[first]), int(self.frames[first]) - self.step + 1, int(self.frames[-1]), pred,
-                       base.copy(), sigma, [])
+                       base.copy(), scatter, [])
 
     def _confirm(self) -> None:
         """The named camera's event, once its turn held over HOLD_SECONDS and FULL_SAMPLES samples
@@ -301,7 +297,9 @@ class DriftMonitor:
         own points' pan and tilt is the camera's re-estimated rotation (:mod:`.turn_fit`; the keys'
         turn where too few); the rotation fitted to its own points (Kabsch) is reported beside it."""
         c, first_frame, started, named_frame, pred, base, sigma, held = self._named
-        at = np.flatnonzero(self.frames == first_frame)
+        lo = len(self.frames) - self.n_base - self.n_recent  # (judged over the last n_base + n_recent samples)
+        meds, samples, frames = self.meds[:, lo:], self.samples[lo:], self.frames[lo:]
+        at = np.flatnonzero(frames == first_frame)
         if not len(at) or at[0] < 1:  # (the move's sample left the history: named again if it holds)
             self._named = None
             return
@@ -318,31 +316,31 @@ class DriftMonitor:
                 return
             if np.mean(held) < HOLD:  # a change of the people in the samples, or a wrong association
                 self._named = None
-                return
+                return self._check()  # (another camera may have moved meanwhile: judged at once)
             self._named = (c, first_frame, started, named_frame, None, None, None, held)
         first = int(at[0])
-        if len(self.frames) - 1 - first < FULL_SAMPLES:
+        if len(frames) - 1 - first < FULL_SAMPLES:
             return
         self._named = None
         own = np.flatnonzero(self.key_camera == c)
         pts = [None if q is None else (np.concatenate([q[1][q[0][k]:q[0][k + 1]] for k in own]),
-                                       np.concatenate([q[2][q[0][k]:q[0][k + 1]] for k in own])) for q in self.samples]
+                                       np.concatenate([q[2][q[0][k]:q[0][k + 1]] for k in own])) for q in samples]
         before = [q for q in pts[:first] if q is not None and len(q[0])]
         after = [q for q in pts[first + 1:] if q is not None and len(q[0])]
         if not before or not after:
             return
-        shift, sigma, _ = kernels.steps(np.ascontiguousarray(np.concatenate([self.meds[:, :first], self.meds[:, first + 1:]], axis=1)),
-                                        first, SIGMA_MIN)
-        fits = self._fit(shift, sigma, np.flatnonzero(np.isfinite(sigma)))[0]
+        shift, sigma = scan_steps(np.concatenate([meds[:, :first], meds[:, first + 1:]], axis=1), first, self.n_recent,
+                                  SIGMA_MIN, CAP, len(frames) - 1 - first)[:2]  # (all the samples after the move)
+        fits = self._fit(shift, sigma, np.flatnonzero(np.isfinite(sigma)), len(frames) - 1 - first)[0]
         w = fits[c][1]
         misfit = np.array([f[0] for f in fits])
         if w is None or np.delete(misfit, c).min() - misfit[c] < MARGIN_HELD:
             return  # (over the samples after the move, another camera's turn explains them as well)
-        ev = TurnEvidence(self.Pn[c], own, np.stack([m for f, m in self.history if f < self.frames[first]]
-                                                    or [np.full((len(self.meds), 2), np.nan)]), self.samples[first + 1:])
+        ev = TurnEvidence(self.Pn[c], own, np.stack([m for f, m in self.history if f < frames[first]]
+                                                    or [np.full((len(meds), 2), np.nan)]), samples[first + 1:])
         keys, R = _rotation(w), ev.fit()  # its own points' pan and tilt (:mod:`.turn_fit`); too few: the keys' turn
         R, kabsch = keys if R is None else R, self._refit(c, after) @ self._refit(c, before).T
-        started = ev.start(self.samples[max(0, first - 2):first + 2], R) or started
+        started = ev.start(samples[max(0, first - 2):], R) or started  # (up to now: the first moved sample may be early)
         frame = self.last_frame
         event = {"camera": self.rig.names[c], "start_frame": started, "detected_frame": int(frame),
                  "start_seconds": round((started - self.first) / self.fps, 2),

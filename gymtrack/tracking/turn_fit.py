@@ -26,7 +26,9 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["fit_rotation", "own_jacobian", "fit_turn", "rotation", "degrees", "TurnEvidence"]
+from ..geometry.camera import Camera
+
+__all__ = ["fit_rotation", "own_jacobian", "fit_turn", "rotation", "degrees", "TurnEvidence", "turn_pixels"]
 
 SCALE = float(np.radians(0.2))  # Cauchy's scale (radians): a point's residual scatter about its pair's bias
 ITERATIONS = 12  # reweighted least squares; the first three with Huber's weights (a start near the bulk)
@@ -159,3 +161,14 @@ class TurnEvidence:
         if not self.X:
             return None
         return fit_turn(self.P, np.concatenate(self.X), np.concatenate(self.seen), np.concatenate(self.b))
+
+
+def turn_pixels(cam: Camera, uv: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+    """(n, 2) raw pixels of ``cam`` -> where they lie after the camera turned by ``rotation`` (3, 3,
+    camera coordinates) about its centre: every ray turns by ``rotation`` (distortion undone, then
+    applied again)."""
+    if not len(uv):
+        return np.asarray(uv, dtype=np.float64)
+    x = cam.undistort(uv)
+    ray = np.c_[x, np.ones(len(x))] @ np.linalg.inv(cam.K).T
+    return cam.project(cam.centre + (ray @ rotation.T) @ cam.R)

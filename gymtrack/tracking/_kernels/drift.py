@@ -4,8 +4,7 @@
 two-view case, midpoint of the rays) projected into each third view that saw it, minus where that
 view saw it -- and the sync regression's sums; :func:`medians`: a sample's rows grouped per
 camera x pair with their medians.
-:func:`steps`: per camera x pair, the shift of the last second's median residual from the
-seconds before, and the scatter of the seconds before. One call each instead of some sixty numpy calls and a median per group; the numpy
+One call each instead of some sixty numpy calls and a median per group; the numpy
 code they replace is ``tests/reference/drift.py`` (same residuals up to rounding, same medians).
 """
 
@@ -128,36 +127,6 @@ def medians(key, R, X, S, n_keys, min_points):
     return med, start, X[order], S[order]
 
 
-@njit(cache=True, error_model="numpy")
-def steps(meds, n_base, min_sigma):
-    """meds (Nk, L, 2) the samples' median residuals (NaN: not judged), the first ``n_base`` the
-    baseline -> shift (Nk, 2) the mean of the recent samples less the baseline's median (0 where
-    not ready), sigma (Nk,) max(min_sigma, 1.4826 x the baseline's median distance from its
-    median; inf where not ready), base (Nk, 2) the baseline's median."""
-    Nk, L, _ = meds.shape
-    shift = np.zeros((Nk, 2))
-    sigma = np.full(Nk, np.inf)
-    base = np.full((Nk, 2), np.nan)
-    for k in range(Nk):
-        good = np.isfinite(meds[k, :n_base, 0])
-        if good.sum() == 0:
-            continue
-        base[k, 0] = np.median(meds[k, :n_base, 0][good])
-        base[k, 1] = np.median(meds[k, :n_base, 1][good])
-        if good.sum() < n_base - 1:
-            continue
-        s0, s1 = 0.0, 0.0
-        for j in range(n_base, L):
-            s0 += meds[k, j, 0] - base[k, 0]
-            s1 += meds[k, j, 1] - base[k, 1]
-        if not (np.isfinite(s0) and np.isfinite(s1)):
-            continue
-        dist = np.hypot(meds[k, :n_base, 0][good] - base[k, 0], meds[k, :n_base, 1][good] - base[k, 1])
-        shift[k, 0], shift[k, 1] = s0 / (L - n_base), s1 / (L - n_base)
-        sigma[k] = max(min_sigma, 1.4826 * np.median(dist))
-    return shift, sigma, base
-
-
 def warm_up() -> None:
     """Compile (or load) the kernels: three views of a synthetic cluster, and a short history."""
     C, W = 3, 4
@@ -169,4 +138,3 @@ def warm_up() -> None:
     key, R, X, S, _, _ = residuals(box, np.ones((C, W), np.bool_), np.arange(C, dtype=np.int64).reshape(1, C), eye, eye,
                                 np.eye(3), Pn, pa, pb, 0.05, 1, W - 1)
     medians(key, R, X, S, C * len(pa), 8)
-    steps(np.zeros((2, 5, 2)), 3, 0.001)
