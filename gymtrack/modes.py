@@ -11,7 +11,8 @@ choices as plain arguments, so no stage tests a mode's name. :data:`RECIPES` nam
   floor's ghost test, Eq. 4 on the tracklet's mean, the image-motion tracker at low
   frame rates, duplicate exclusion, the older track kept, Eq. 12 over the best-observed estimates,
   one view alone only inside the performance space, the shorter end-box hold, the target's
-  handover and its ballistic flights, a dropped cluster's opposite pairs regrouped on the plane; ray/plane fusion and
+  handover and its ballistic flights, a dropped cluster's opposite pairs regrouped on the plane, Eq. 13
+  counting a raised point away from the apparatus only for a flight's length; ray/plane fusion and
   online plane refinement where the scene asks for them).
 
 Ingredients built but not in cascade+ (:data:`OPTIONAL`: the benchmark showed no gain) are added
@@ -81,6 +82,11 @@ class Method:
         of the last Delta frames (:class:`gymtrack.tracking.identify.TargetSelector`):
         a phantom of association identified before the gymnast qualified is not held while the
         gymnast's own track qualifies; else the target is held until it ends or leaves.
+    reach: Eq. 13 counts a point raised above ``h_bot`` more than 1.5 m from the apparatus's bars
+        and blocks only for as long as a flight lasts, for identifying a track and for keeping
+        the target (:mod:`gymtrack.tracking.reach`): a phantom standing still in the air at the
+        edge of the performance space is not identified, or not held; a scene without an
+        apparatus is unchanged.
     name: what results and reports call it.
     """
 
@@ -101,6 +107,7 @@ class Method:
     ballistic: bool = False
     regroup: bool = False
     reidentify: bool = False
+    reach: bool = False
     name: str = "custom"
 
     def __post_init__(self) -> None:
@@ -133,7 +140,7 @@ RECIPES: dict[str, Method] = {
     "cascade+": Method(image_motion=True, outliers_at_mean=True, floor=True, ghost_test=True, fusion=True,
                        keep_older=True, exclusion=True, best_estimates=True, solo_inside=True,
                        refine_plane=True, hold_seconds=0.2, handover=True, ballistic=True, regroup=True,
-                       reidentify=True, name="cascade+"),
+                       reidentify=True, reach=True, name="cascade+"),
 }
 MODES: tuple[str, ...] = tuple(RECIPES)
 #: the recipe a Tracker, the offline runners, batch and the command line use unless told

@@ -135,7 +135,7 @@ def test_somersault_and_twist_follow_the_simulators_pitch_and_twist(double_tuck_
 def test_the_somersault_axis_is_the_plane_normal_but_the_pommel_horses_length(normal):
     """Laid on a scene's plane, every preset's somersault axis is the plane's normal n, but the pommel
     horse's is its length, n x z (the preset turned with the plane, its sign following n)."""
-    from gymtrack.analysis.support import scene_geometry
+    from gymtrack.placement import scene_geometry
     from gymtrack.scene import PlaneSpec
 
     n = np.asarray(normal)

@@ -159,7 +159,8 @@ def test_an_airborne_run_with_a_hand_in_the_bars_reach_throughout_is_no_flight()
     bar) is a hidden grip; a release, whose hands leave that reach, stays a flight."""
     from gymtrack.analysis.flights import find_flights
     from gymtrack.analysis.joints import USED, I
-    from gymtrack.analysis.support import hands_may_hold, scene_geometry
+    from gymtrack.analysis.support import hands_may_hold
+    from gymtrack.placement import scene_geometry
 
     geo = scene_geometry(preset_scene("horizontal_bar"))  # the bar along x at z = 2.8
     n = 8

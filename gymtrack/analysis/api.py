@@ -32,7 +32,8 @@ from .flights import find_flights, flight_elements, held_handstand
 from .joints import NEEDS, USED, gather, body_height
 from .kinematics import angle_sd, com_sd, mid
 from .rotation import heading
-from .support import clearance, foot_height, hands_may_hold, scene_geometry, support as support_codes
+from ..placement import scene_geometry
+from .support import clearance, foot_height, hands_may_hold, support as support_codes
 from .uncertainty import SAMPLES, measure_samples
 
 __all__ = ["Analysis", "analyse"]

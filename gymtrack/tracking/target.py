@@ -27,10 +27,12 @@ inside the image.
 
 from __future__ import annotations
 
+from collections import defaultdict
 from typing import Sequence
 
 import numpy as np
 
+from ..placement import scene_geometry
 from ..scene import Scene
 from ..geometry.camera import Rig
 from ..geometry.plane import Plane
@@ -39,6 +41,7 @@ from ._kernels.target import buffered_boxes as buffered_boxes_kernel
 from ..detections import Detections
 from .handover import TargetHandover
 from .identify import TargetBackfill, TargetSelector, identify_indicator, point_support
+from .reach import ReachLimit
 from .smoothing import TargetSmoother
 from .types import Target, TargetRows, Tracks3D
 
@@ -49,7 +52,8 @@ class TargetStage:
 
     rig: the cameras; scene: performance space, target heights, planes and parameters
     (``identify_frames``, ``backfill_frames``, ``max_gap``, ``box_scale``); reidentify: the
-    recipe's ``reidentify`` (see :class:`~.identify.TargetSelector`); counts: the tracker's counters.
+    recipe's ``reidentify`` (see :class:`~.identify.TargetSelector`); counts: the tracker's counters;
+    reach: the recipe's ``reach`` (:mod:`.reach`).
 
     Use: ``target, boxes = stage.update(a, b, tracks, boxes, ended)`` for every run of final
     frames ``a..b`` in order, then ``stage.finish()``. State: the selector's last
@@ -58,7 +62,7 @@ class TargetStage:
     """
 
     def __init__(self, rig: Rig, scene: Scene, handover: TargetHandover | None = None, reidentify: bool = False,
-                 counts: dict | None = None):
+                 counts: dict | None = None, reach: bool = False):
         p = scene.params
         self.handover = handover  # the recipe's handover (.handover): None is the paper's Eq. 13 alone
         self.flights = None if handover is None else handover.flights  # the recipe's ballistic (.ballistic)
@@ -70,7 +74,10 @@ class TargetStage:
         self.identify_frames, self.backfill_frames, self.box_scale = p.identify_frames, p.backfill_frames, p.box_scale
         self.half_depth = p.body_half_depth  # Eq. 14's body box across the plane
         # the recipe's reidentify (False: the paper's hold until the target ends or leaves)
-        self.selector = TargetSelector(p.identify_frames, reidentify=reidentify, counts=counts)
+        self.counts = defaultdict(int) if counts is None else counts
+        self.selector = TargetSelector(p.identify_frames, reidentify=reidentify, counts=self.counts)
+        # the recipe's reach (.reach): None is Eq. 13's indicator alone
+        self.reach = ReachLimit(scene_geometry(scene), self.h_bot, scene.fps) if reach else None
         self.backfill = TargetBackfill(p.backfill_frames)
         self.smoother = TargetSmoother(p.max_gap)
         self.memory: dict = {}  # Eq. 14: the body box's last half-length
@@ -80,7 +87,7 @@ class TargetStage:
 
     def __len__(self) -> int:
         return (len(self.selector) + len(self.smoother) + len(self.backfill) + len(self.handover or ())
-                + len(self.flights or ()))
+                + len(self.flights or ()) + len(self.reach or ()))
 
     @property
     def switches(self) -> int:
@@ -118,6 +125,11 @@ class TargetStage:
         if self.flights is not None:  # the target's track in flight: the parabola's points (.ballistic)
             rows = self.flights.extend(a, b, self.handover.flying(self.selector), rows)
         ind, inperf = identify_indicator(rows.xyz, rows.top_z, rows.bottom_z, self.perf, self.h_top, self.h_bot)
+        if self.reach is not None:  # raised away from the apparatus longer than a flight: nowhere a body can be
+            held_up = self.reach.grounded(rows.frame, rows.track_id, rows.xyz, rows.bottom_z)
+            self.counts["target_points_out_of_reach"] += int((inperf & ~held_up).sum())
+            ind &= held_up
+            inperf &= held_up
         sup = point_support(rows.wh) if self.selector.reidentify else None
         if self.handover is None:
             target = self.selector.select(a, b, rows.frame, rows.track_id, ind, inperf, ended, sup)  # (b-a+1,)

@@ -1,0 +1,89 @@
+"""Where a body can be held up: Eq. 13 counts a raised point away from the apparatus only for a flight's length.
+
+Beyond the paper (Section III-D, Eq. 13; the recipe's ``reach``). Eq. 13 takes a track for the
+gymnast when its body's bottom is above ``h_bot`` in the performance space. Off the floor a
+body is held up by the apparatus, or it is in the air. A point raised above ``h_bot`` and more
+than :data:`REACH` from every bar and block of the preset (laid on the scene's plane,
+:mod:`gymtrack.placement`) is in the air, and nobody stays in the air longer than a flight
+lasts: such a point counts for Eq. 13 only within the first :data:`MAX_FLIGHT_SECONDS` of its
+track's run of raised points away from the apparatus. What outlasts it is a phantom of
+association -- a person off the plane seen by one view, or by an opposite pair whose rays meet
+the plane above the floor -- which stood still as a target at the edge of the performance space
+for whole routines (uneven bars, vault; two opposite cameras), before the gymnast qualified.
+
+Such a point is where no body can be: it counts neither for identifying a track nor for
+keeping a target in the performance space (Eq. 13's "leaves"), so a phantom identified in its
+first moments gives the target up a flight's length later. A scene without an apparatus behaves
+as the paper's rule.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..placement import Geometry, apparatus_distance
+
+__all__ = ["REACH", "MAX_FLIGHT_SECONDS", "ReachLimit"]
+
+#: metres from the nearest bar or block beyond which a raised body is not held up: a gymnast's
+#: centre hangs about 1.1 m below a bar's grip and stands about 1.0 m over a beam or a bar in a
+#: handstand. The simulator's gymnasts (seeds 0-2, 168 routines) were raised beyond 1.5 m for
+#: at most 0.93 s at a time (dismounts and the vault's second flight).
+REACH = 1.5
+#: seconds: the longest flight counted. The longest flight there is, a horizontal bar dismount
+#: from the grip at 2.8 m with the centre rising about 1 m above it, lasts about 1.4 s (0.45 s up
+#: at 4.4 m/s, 0.96 s down 4.5 m under g = 9.81), and only part of it lies beyond REACH.
+MAX_FLIGHT_SECONDS = 1.5
+
+
+class ReachLimit:
+    """The reach rule on a stream of track points (see the module docstring).
+
+    geometry: the apparatus laid on the scene (:func:`gymtrack.placement.scene_geometry`);
+    h_bot: Eq. 13's bottom height; fps: frames per second.
+    State: per track whose last point was raised away from the apparatus, the frame its run
+    began and its last frame (dropped once a flight's length has passed since it).
+    """
+
+    def __init__(self, geometry: Geometry, h_bot: float, fps: float):
+        self.geometry, self.h_bot = geometry, float(h_bot)
+        self.max_frames = int(round(MAX_FLIGHT_SECONDS * fps))
+        self._open: dict[int, tuple[int, int]] = {}  # track id -> (first frame of its run, last frame)
+
+    def __len__(self) -> int:
+        return len(self._open)
+
+    def grounded(self, frame: np.ndarray, tid: np.ndarray, xyz: np.ndarray, bottom_z: np.ndarray) -> np.ndarray:
+        """(n,) rows in frame order -> (n,) bool: False where the point is raised away from the
+        apparatus for longer than a flight (it must not count for Eq. 13)."""
+        n = len(frame)
+        if not n or not self.geometry.has_apparatus:
+            return np.ones(n, bool)
+        with np.errstate(invalid="ignore"):
+            away = (bottom_z > self.h_bot) & (apparatus_distance(xyz, self.geometry) > REACH)
+        order = np.lexsort((frame, tid))  # each track's rows in frame order
+        t, f, a = tid[order], frame[order], away[order]
+        new_track = np.r_[True, t[1:] != t[:-1]]
+        # a run of raised points away begins at an away row after a grounded row or a track's first row
+        begins = a & (new_track | ~np.r_[False, a[:-1]])
+        start = np.where(begins, f, -1)
+        for i in np.flatnonzero(begins & new_track):  # a run open since the last call continues
+            held = self._open.get(int(t[i]))
+            if held is not None and f[i] - held[1] <= self.max_frames:
+                start[i] = held[0]
+        run = np.cumsum(begins)  # each row's run (0: before any)
+        first = np.zeros(run[-1] + 1, np.int64)
+        first[run[begins]] = start[begins]
+        ok = ~a | (f - first[run] < self.max_frames)
+        last = np.r_[new_track[1:], True]  # each track's last row in this call
+        for i in np.flatnonzero(last):
+            if a[i]:
+                self._open[int(t[i])] = (int(first[run[i]]), int(f[i]))
+            else:
+                self._open.pop(int(t[i]), None)
+        horizon = int(frame.max()) - self.max_frames
+        for k in [k for k, (_, end) in self._open.items() if end < horizon]:
+            del self._open[k]
+        out = np.empty(n, bool)
+        out[order] = ok
+        return out
