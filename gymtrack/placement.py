@@ -2,7 +2,8 @@
 
 Paper: Section III-C (the apparatus and its vertical plane). The preset's geometry
 (:mod:`gymtrack.apparatus`) is turned about z so that its plane normal is the scene's first
-plane's normal, and shifted along that normal onto the plane. Used by the analysis (what the body
+plane's normal, shifted along that normal onto the plane, and along the plane so that its centre
+lies under the scene's focus. Used by the analysis (what the body
 touches, :mod:`gymtrack.analysis.support`) and by the tracker (where a body can be held up,
 :mod:`gymtrack.tracking.reach`).
 """
@@ -61,7 +62,10 @@ def yaw_rotation(yaw: float) -> np.ndarray:
 
 
 def scene_geometry(scene: Scene) -> Geometry:
-    """The apparatus preset of ``scene`` placed on its plane (no apparatus: floor only)."""
+    """The apparatus preset of ``scene`` placed on its plane (no apparatus: floor only): turned
+    about z so that its plane normal is the scene's first plane's normal, shifted across the plane
+    onto it and, along it, so that the preset's focus (1.5 m over the apparatus centre) falls
+    under the scene's ``focus`` (a scene in its own frame, ``docs/your-own-data.md`` Option 2)."""
     normal = np.asarray(scene.planes[0].normal, float) if scene.planes else None
     if normal is not None and abs(normal[2]) > 1e-6:
         normal = None  # a somersault axis must be horizontal; a tilted plane is not an apparatus plane
@@ -77,6 +81,12 @@ def scene_geometry(scene: Scene) -> Geometry:
         pp = np.asarray(scene.planes[0].point, float)
         shift = normal * float(np.dot(pp - np.asarray(app.plane_point, float), normal))
     R = yaw_rotation(yaw)
+    if scene.focus is not None:  # along the plane, the apparatus centre is under the focus (the presets' convention)
+        along = np.asarray(scene.focus, float) - R @ np.asarray(app.focus, float)
+        along[2] = 0.0
+        if normal is not None:
+            along -= normal * float(np.dot(along, normal))  # (across it, the plane says where)
+        shift = shift + along
     bars = app.bars
     a = np.array([b.start for b in bars], float).reshape(-1, 3) @ R.T + shift
     b = np.array([b.end for b in bars], float).reshape(-1, 3) @ R.T + shift
