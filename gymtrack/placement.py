@@ -28,12 +28,14 @@ EXTRA_BLOCKS: dict[str, tuple[tuple[tuple[float, float, float], tuple[float, flo
     "pommel_horse": (((-0.8, -0.175, 1.03), (0.8, 0.175, 1.15)),),
 }
 
+
 @dataclass(frozen=True)
 class Geometry:
     """The scene's surfaces in world coordinates.
 
     bar_a, bar_b: (B, 3) bar ends; bar_r: (B,) radii; box_lo, box_hi: (Q, 3) block corners
-    (axis-aligned in the preset's frame, turned by ``yaw`` about ``pivot``); mats: (T, 6) boxes.
+    (blocks, mats and :data:`EXTRA_BLOCKS`; axis-aligned in the preset's frame, which is turned by
+    ``yaw`` about z and then moved by ``shift`` (3,) into the world).
     apparatus: the preset name or None; plane_normal: (3,) unit or None; somersault_axis: (3,) unit
     or None, the preset's :attr:`~gymtrack.apparatus.Apparatus.somersault_axis` laid on the plane
     (the plane's normal where the scene names no apparatus).

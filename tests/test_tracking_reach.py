@@ -1,6 +1,7 @@
 """The reach rule (gymtrack.tracking.reach): a raised point away from the apparatus counts for
 Eq. 13 only for a flight's length; hand-worked runs on the presets, and the target stage giving
-a phantom up."""
+a phantom up, and cascade+ with and without it on a simulated vault (the recipe's test of the
+ingredient switched off alone, kept beside the rule's own tests)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,10 @@ from conftest import ring_rig
 
 from gymtrack.detections import Detections
 from gymtrack.formats.scene import preset_scene
+from gymtrack.modes import RECIPES
 from gymtrack.placement import apparatus_distance, scene_geometry
+from gymtrack.simulate.routine import simulate_routine
+from gymtrack.tracking.offline import track_detections
 from gymtrack.tracking.reach import MAX_FLIGHT_SECONDS, REACH, ReachLimit
 from gymtrack.tracking.target import TargetStage
 from gymtrack.tracking.types import Tracks3D
@@ -129,3 +133,32 @@ def test_the_target_stage_gives_a_phantom_up_and_takes_the_gymnast_in_her_flight
     assert stage.counts["target_points_out_of_reach"] == 300 - N
     assert (got[N + 30:200] == -1).all()  # left within Delta frames of its flight's length
     assert (got[260:] == 2).all()  # (with the frames her identification looked back on, from 206)
+
+
+# ----------------------------------------------------------------------------- the recipe, switched off alone
+@pytest.fixture(scope="module")
+def vault_phantom():
+    """A vault seen by two opposite views (a suite routine of seed 2): an opposite pair's rays
+    meet the plane 1-2 m up, 2.9 m beyond the table, for the whole routine; Eq. 13 identifies
+    that point before the gymnast leaves the floor."""
+    sim = simulate_routine("vault", n_cam=2, seed=674825418, seconds=25)
+    return sim.rig, sim.scene, sim.detections, sim
+
+
+def test_reach_gives_up_a_phantom_in_the_air_and_finds_the_gymnast(vault_phantom):
+    rig, scene, det, sim = vault_phantom
+    plus = RECIPES["cascade+"]
+    on, off = (track_detections(rig, scene, det, mode=m) for m in (plus, plus.without("reach")))
+    # only the target changes
+    assert np.array_equal(on.tracks.track_id, off.tracks.track_id) and np.array_equal(on.tracks.xyz, off.tracks.xyz)
+    assert on.summary["target_points_out_of_reach"] > 0 and "target_points_out_of_reach" not in off.summary
+    inside = np.all((sim.centre[0] >= np.array(sim.scene.performance_space[:3]))
+                    & (sim.centre[0] <= np.array(sim.scene.performance_space[3:])), axis=1)
+    perf = sim.frames[inside & sim.performing]  # (the vault itself: the last strides, the flights, the landing)
+
+    def near(res):  # performing frames whose target lies within 0.5 m of the gymnast's centre
+        rows = np.isin(res.target.frame, perf)
+        err = np.linalg.norm(res.target.xyz[rows] - sim.centre[0][res.target.frame[rows] - sim.frames[0]], axis=1)
+        return int(np.count_nonzero(err < 0.5))
+
+    assert near(on) >= 0.9 * len(perf) and near(off) <= 0.6 * len(perf)

@@ -426,30 +426,3 @@ def test_reidentify_changes_only_the_target(rings):
     assert (n == 0) == (np.array_equal(on.target.track_id, off.target.track_id)
                         and np.array_equal(on.target.frame, off.target.frame))
 
-
-# ----------------------------------------------------------------------------- a phantom out of reach
-@pytest.fixture(scope="module")
-def vault_phantom():
-    """A vault seen by two opposite views (a suite routine of seed 2): an opposite pair's rays
-    meet the plane 1-2 m up, 2.9 m beyond the table, for the whole routine; Eq. 13 identifies
-    that point before the gymnast leaves the floor."""
-    sim = simulate_routine("vault", n_cam=2, seed=674825418, seconds=25)
-    return sim.rig, sim.scene, sim.detections, sim
-
-
-def test_reach_gives_up_a_phantom_in_the_air_and_finds_the_gymnast(vault_phantom):
-    on, off = _run(vault_phantom, PLUS, "vault_phantom"), _run(vault_phantom, PLUS.without("reach"), "vault_phantom")
-    # only the target changes
-    assert np.array_equal(on.tracks.track_id, off.tracks.track_id) and np.array_equal(on.tracks.xyz, off.tracks.xyz)
-    assert on.summary["target_points_out_of_reach"] > 0 and "target_points_out_of_reach" not in off.summary
-    sim = vault_phantom[3]
-    inside = np.all((sim.centre[0] >= np.array(sim.scene.performance_space[:3]))
-                    & (sim.centre[0] <= np.array(sim.scene.performance_space[3:])), axis=1)
-    perf = sim.frames[inside & sim.performing]  # (the vault itself: the last strides, the flights, the landing)
-
-    def near(res):  # performing frames whose target lies within 0.5 m of the gymnast's centre
-        rows = np.isin(res.target.frame, perf)
-        err = np.linalg.norm(res.target.xyz[rows] - sim.centre[0][res.target.frame[rows] - sim.frames[0]], axis=1)
-        return int(np.count_nonzero(err < 0.5))
-
-    assert near(on) >= 0.9 * len(perf) and near(off) <= 0.6 * len(perf)
