@@ -11,8 +11,10 @@ choices as plain arguments, so no stage tests a mode's name. :data:`RECIPES` nam
   floor's ghost test, Eq. 4 on the tracklet's mean, the image-motion tracker at low
   frame rates, duplicate exclusion, the older track kept, Eq. 12 over the best-observed estimates,
   one view alone only inside the performance space, the shorter end-box hold, the target's
-  handover and its ballistic flights, a dropped cluster's opposite pairs regrouped on the plane, Eq. 13
-  counting a raised point away from the apparatus only for a flight's length; ray/plane fusion and
+  handover and its ballistic flights, a dropped cluster's opposite pairs regrouped on the plane and its
+  segments that continued a track continuing it alone, Eq. 13
+  counting a raised point away from the apparatus only for a flight's length, the identification's
+  look-back following the track its target continues; ray/plane fusion and
   online plane refinement where the scene asks for them).
 
 Ingredients built but not in cascade+ (:data:`OPTIONAL`: the benchmark showed no gain) are added
@@ -77,6 +79,10 @@ class Method:
         views nearest each other by Eq. 2 goes on to the plane stage as a pair of its own
         (:mod:`gymtrack.tracking.regroup`): a third view's wrong segment no longer takes the
         gymnast's opposite pair down with it.
+    alone: a dropped cluster's segment (Eq. 4 or the ghost test) whose 2D track belonged to a 3D
+        track of the previous window continues that track from its one view on the plane, as a
+        single tracklet does (the paper's one-view continuation; :func:`gymtrack.tracking.regroup.alone`):
+        a wrong third view no longer cuts a gymnast whom only one view sees from her track.
     reidentify: the held target gives way to another track that qualified (Eq. 13) seen in
         more views than the target (triangulated or on the plane alike) in more than Delta / 2
         of the last Delta frames (:class:`gymtrack.tracking.identify.TargetSelector`):
@@ -87,6 +93,10 @@ class Method:
         the target (:mod:`gymtrack.tracking.reach`): a phantom standing still in the air at the
         edge of the performance space is not identified, or not held; a scene without an
         apparatus is unchanged.
+    chain: an identification's look-back (the back-fill) goes on to the track its track
+        continues: one that ended at most 0.5 s before it was born, where its horizontal motion
+        points (:mod:`gymtrack.tracking.chain`): the vault's run-up, broken at the take-off, is
+        the gymnast's too once she is identified in the air (the tracks unchanged).
     name: what results and reports call it.
     """
 
@@ -106,8 +116,10 @@ class Method:
     handover: bool = False
     ballistic: bool = False
     regroup: bool = False
+    alone: bool = False
     reidentify: bool = False
     reach: bool = False
+    chain: bool = False
     name: str = "custom"
 
     def __post_init__(self) -> None:
@@ -140,7 +152,7 @@ RECIPES: dict[str, Method] = {
     "cascade+": Method(image_motion=True, outliers_at_mean=True, floor=True, ghost_test=True, fusion=True,
                        keep_older=True, exclusion=True, best_estimates=True, solo_inside=True,
                        refine_plane=True, hold_seconds=0.2, handover=True, ballistic=True, regroup=True,
-                       reidentify=True, reach=True, name="cascade+"),
+                       alone=True, reidentify=True, reach=True, chain=True, name="cascade+"),
 }
 MODES: tuple[str, ...] = tuple(RECIPES)
 #: the recipe a Tracker, the offline runners, batch and the command line use unless told

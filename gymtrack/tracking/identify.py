@@ -28,6 +28,8 @@
   after the last one whose target had a point there (see :func:`backfill`). The paper's "inevitably lost"
   frames after every (re-)identification come back, at the price of ``backfill_frames`` frames
   of latency for the target (the 3D tracks keep theirs). ``backfill_frames = 0`` is the paper.
+  The recipe's ``chain`` lets the look-back go on to the track the identified one continues
+  (:mod:`.chain`).
 
 The stage that wires these with smoothing and the Eq. 14 boxes: :class:`~.target.TargetStage`.
 """
@@ -37,6 +39,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..scene import in_box
+from .chain import chain_back
 from .types import TargetRows
 
 
@@ -241,7 +244,7 @@ def point_support(wh: np.ndarray) -> np.ndarray:
 
 
 def backfill(decision: np.ndarray, index: np.ndarray, track_id: np.ndarray, frames: int, since: int = 0,
-             before: int = -1) -> np.ndarray:
+             before: int = -1, chain: tuple[np.ndarray, int, dict] | None = None) -> np.ndarray:
     """Hand newly identified tracks the undecided frames Eq. 13 looked back on (in place).
 
     decision: (F,) the target's track id per frame (-1: none); index: (n,) frame index (into
@@ -252,7 +255,10 @@ def backfill(decision: np.ndarray, index: np.ndarray, track_id: np.ndarray, fram
     For every index ``k >= since`` where the target becomes a track ``T`` different from the
     previous frame's, the frames ``k - frames .. k - 1`` after the last frame whose target had a
     point there become ``T``'s where ``T`` has a point (a lost target is held until Eq. 13 lets
-    it go, without points: those frames are open to its successor). Returns ``decision``.
+    it go, without points: those frames are open to its successor). ``chain``: the recipe's
+    ``chain`` (:mod:`.chain`), (xyz (n, 3) of the points, the break's frames at most, counts):
+    the look-back goes on to the tracks ``T`` continues (counted in ``target_frames_chained``).
+    Returns ``decision``.
     """
     if frames <= 0 or len(decision) <= since:
         return decision
@@ -271,6 +277,10 @@ def backfill(decision: np.ndarray, index: np.ndarray, track_id: np.ndarray, fram
             mine = index[(track_id == decision[k]) & (index >= lo) & (index < k)]
             decision[mine] = decision[k]
             pointed[mine] = True
+            if chain is not None:
+                xyz, gap, counts = chain
+                counts["target_frames_chained"] += chain_back(decision, pointed, index, track_id, xyz, int(decision[k]),
+                                                              lo, gap)
     return decision
 
 
@@ -282,8 +292,9 @@ class TargetBackfill:
     the frames up to a given one. State: the points of at most ``frames`` + one call's frames.
     """
 
-    def __init__(self, frames: int):
+    def __init__(self, frames: int, chain: tuple[int, dict] | None = None):
         self.frames = int(frames)
+        self.chain = chain  # the recipe's chain (.chain): (the break's frames at most, counts)
         self._first: int | None = None  # first frame not yet released
         self._decision = np.zeros(0, np.int64)
         self._rows: TargetRows | None = None
@@ -302,7 +313,8 @@ class TargetBackfill:
         since = len(self._decision)
         self._decision = np.concatenate([self._decision, np.asarray(decision, np.int64)])
         self._rows = rows if self._rows is None else TargetRows.concat([self._rows, rows])
-        backfill(self._decision, self._rows.frame - self._first, self._rows.track_id, self.frames, since, self._last)
+        chain = None if self.chain is None else (self._rows.xyz, *self.chain)
+        backfill(self._decision, self._rows.frame - self._first, self._rows.track_id, self.frames, since, self._last, chain)
 
     def restart(self) -> None:
         """After every decision was released: the next :meth:`push` may start at any later frame."""

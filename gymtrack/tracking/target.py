@@ -39,6 +39,7 @@ from ..geometry.plane import Plane
 from ._kernels.target import BodyBox
 from ._kernels.target import buffered_boxes as buffered_boxes_kernel
 from ..detections import Detections
+from .chain import GAP_SECONDS
 from .handover import TargetHandover
 from .identify import TargetBackfill, TargetSelector, identify_indicator, point_support
 from .reach import ReachLimit
@@ -53,7 +54,7 @@ class TargetStage:
     rig: the cameras; scene: performance space, target heights, planes and parameters
     (``identify_frames``, ``backfill_frames``, ``max_gap``, ``box_scale``); reidentify: the
     recipe's ``reidentify`` (see :class:`~.identify.TargetSelector`); counts: the tracker's counters;
-    reach: the recipe's ``reach`` (:mod:`.reach`).
+    reach: the recipe's ``reach`` (:mod:`.reach`); chain: the recipe's ``chain`` (:mod:`.chain`).
 
     Use: ``target, boxes = stage.update(a, b, tracks, boxes, ended)`` for every run of final
     frames ``a..b`` in order, then ``stage.finish()``. State: the selector's last
@@ -62,7 +63,7 @@ class TargetStage:
     """
 
     def __init__(self, rig: Rig, scene: Scene, handover: TargetHandover | None = None, reidentify: bool = False,
-                 counts: dict | None = None, reach: bool = False):
+                 counts: dict | None = None, reach: bool = False, chain: bool = False):
         p = scene.params
         self.handover = handover  # the recipe's handover (.handover): None is the paper's Eq. 13 alone
         self.flights = None if handover is None else handover.flights  # the recipe's ballistic (.ballistic)
@@ -78,7 +79,8 @@ class TargetStage:
         self.selector = TargetSelector(p.identify_frames, reidentify=reidentify, counts=self.counts)
         # the recipe's reach (.reach): None is Eq. 13's indicator alone
         self.reach = ReachLimit(scene_geometry(scene), self.h_bot, scene.fps) if reach else None
-        self.backfill = TargetBackfill(p.backfill_frames)
+        # the recipe's chain (.chain): the look-back follows the track the identified one continues
+        self.backfill = TargetBackfill(p.backfill_frames, (int(round(GAP_SECONDS * scene.fps)), self.counts) if chain else None)
         self.smoother = TargetSmoother(p.max_gap)
         self.memory: dict = {}  # Eq. 14: the body box's last half-length
         self.frames = 0  # target frames emitted

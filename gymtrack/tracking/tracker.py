@@ -154,7 +154,7 @@ class Tracker:
         flights = FlightKeeper(scene.fps, self.counts) if m.ballistic else None  # (.ballistic: through the handover)
         self.target = TargetStage(rig, scene, TargetHandover(p.identify_frames, self.counts, flights=flights, plain=m.handover)
                                   if m.handover or m.ballistic else None, reidentify=m.reidentify, counts=self.counts,
-                                  reach=m.reach)
+                                  reach=m.reach, chain=m.chain)
         self.venue = DriftMonitor(rig, scene.fps, p.step, self.opposite, recalibrate, active=watch_cameras)  # knocked or unsynchronised cameras
         # the apparatus plane refined online (.plane_refine); planes: auto turns it on
         every = p.refine_plane or (REFINE_EVERY if scene.auto_planes else 0)
