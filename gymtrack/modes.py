@@ -80,9 +80,10 @@ class Method:
         (:mod:`gymtrack.tracking.regroup`): a third view's wrong segment no longer takes the
         gymnast's opposite pair down with it.
     alone: a dropped cluster's segment (Eq. 4 or the ghost test) whose 2D track belonged to a 3D
-        track of the previous window continues that track from its one view on the plane, as a
-        single tracklet does (the paper's one-view continuation; :func:`gymtrack.tracking.regroup.alone`):
-        a wrong third view no longer cuts a gymnast whom only one view sees from her track.
+        track of the previous window goes to the plane alone and only continues a track, and a regrouped pair continues the
+        track its 2D tracks belonged to wherever the wrong cluster had put it
+        (:func:`gymtrack.tracking.regroup.alone`): a wrong third view no longer cuts a gymnast
+        from her track.
     reidentify: the held target gives way to another track that qualified (Eq. 13) seen in
         more views than the target (triangulated or on the plane alike) in more than Delta / 2
         of the last Delta frames (:class:`gymtrack.tracking.identify.TargetSelector`):

@@ -68,9 +68,9 @@ def triangulation_stage(t, segs: WindowTracklets, labels: np.ndarray | None, D2:
         t._regrouped, t._groups, to_plane, t._floor_only, t._fresh = regroup(
             tested, tri.members, D2, segs.camera, t.opposite, p.cluster_2d, to_plane, t._floor_only, t.counts)
     if tested is not None and t.method.alone:  # and its segments that continued a track, alone (.regroup)
-        t._regrouped, t._groups, to_plane, t._fresh = alone(
-            tested, tri.members, segs.track2d, t.linker.prev_2d, t._regrouped, t._groups, to_plane, t._floor_only,
-            t._fresh, t.counts)
+        # (only a 2D track that belonged to a track: a new one in a wrong cluster is as often the wrong view)
+        t._regrouped, t._groups, to_plane = alone(tested, tri.members, np.isin(segs.track2d, t.linker.prev_2d),
+                                                  t._regrouped, t._groups, to_plane, t._floor_only, t.counts)
     if t.refiner is not None:  # the plane's points: what passed the tests, and the opposite pairs
         t.refiner.observe(segs, tri, members[fallback & ((members >= 0).sum(axis=1) >= 2)])
     t.counts["clusters_triangulated"] += len(tri)
@@ -108,7 +108,7 @@ def plane_stage(t, segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray |
                      t.method.outliers_at_mean, t._groups)
     if pl is not None and len(t._regrouped):  # only a gymnast's regrouped pair is kept (.regroup)
         pl = gymnast_only(pl, t._regrouped, t.perf_space, t.scene.target, t.counts,
-                          continuing(pl, segs.track2d, t.linker.prev_2d) if t.method.alone else None)
+                          continuing(pl, t.linker.may_continue_alone(segs.track2d)) if t.method.alone else None)
     if pl is not None and t.fusion is not None:  # two-view plane tracklets fused with the plane (.fusion)
         pl = drop_outliers(t, t.fusion.refine(segs, pl))  # (Eq. 4 on the fused points too)
     return pl, floor

@@ -25,10 +25,14 @@ without a pair stay dropped, as before.
 The recipe's ``alone`` (:func:`alone`): a dropped cluster's segment whose 2D track belonged to a
 3D track of the previous window -- a gymnast whom one view follows while a wrong third view
 joined her cluster -- goes to the plane alone (a group of its own: it fuses with no one) and only
-continues its track, as the paper's single tracklets do; a pair's segment whose partner did not
-fuse with it continues its track the same way (:func:`gymnast_only`'s ``alone``). Without it, a
-gymnast seen by one view lost her track for as long as a wrong cluster took her segment
-(simulated beam, seed 2 r1, n_cam = 2: five seconds).
+continues a track, as the tracker's single tracklets do (a new 2D track in a wrong cluster is as
+often the wrong view: letting those go on too cost the target at n_cam = 4 on the rings); a
+pair's segment whose partner did not fuse with it continues its track as any single tracklet
+may (:func:`gymnast_only`'s ``alone``), and a
+regrouped pair continues the track its 2D tracks belonged to wherever the wrong cluster had put
+that track (the tracker links it by its 2D tracks, as a floor tracklet). Without it, a gymnast
+seen by one view lost her track for as long as a wrong cluster took her segment (simulated
+beam, seed 2 r1, n_cam = 2: five seconds).
 
 Effect (simulated, n_cam = 2): the beam's target FR 11.9 -> 1.3 % (the oracle's 1.3 %) on a
 seed-4 check suite, 11.9 -> 1.1 % on a seed-3 beam and pommel suite; the other apparatus' target
@@ -132,28 +136,30 @@ def regroup(tested: np.ndarray, kept: np.ndarray, D2: np.ndarray, camera: np.nda
     return seg, groups, to_plane, floor_only, fresh
 
 
-def alone(tested: np.ndarray, kept: np.ndarray, track2d: np.ndarray, prev_2d: np.ndarray, regrouped: np.ndarray,
-          groups: np.ndarray | None, to_plane: np.ndarray, floor_only: np.ndarray, fresh: np.ndarray, counts: dict):
+def alone(tested: np.ndarray, kept: np.ndarray, may: np.ndarray, regrouped: np.ndarray, groups: np.ndarray | None,
+          to_plane: np.ndarray, floor_only: np.ndarray, counts: dict):
     """The recipe's ``alone``: the segments of the clusters Eq. 4 and the ghost test dropped
     (``tested`` (M, C) members before the tests, ``kept`` (M', C) after them), neither regrouped
-    nor left to the floor, whose 2D track (``track2d`` (K,)) belonged to a 3D tracklet of the
-    previous window (``prev_2d``): each goes to the plane with a group label of its own (it fuses
-    with no segment) and joins the regrouped ones (so it only continues a track, and not on the
-    floor alone). Returns ``regrouped``, ``groups``, ``to_plane`` (sorted) and ``fresh`` with them
-    added; counted in ``segments_alone``."""
+    nor left to the floor, that may continue a track from their view alone (``may`` (K,) bool per
+    segment; the tracker's: its 2D track belonged to a 3D tracklet of the previous window): each
+    goes to the plane with a group label
+    of its own (it fuses with no segment on the plane) and joins the regrouped ones (so that on the
+    plane it only continues a track). The floor takes it as any segment: a person on the floor seen
+    by two views is one, and one view there only continues a track anyway. Returns ``regrouped``,
+    ``groups`` and ``to_plane`` (sorted) with them added; counted in ``segments_alone``."""
     dropped = np.setdiff1d(tested[tested >= 0], kept[kept >= 0])
-    seg = dropped[~np.isin(dropped, regrouped) & ~np.isin(dropped, floor_only) & np.isin(track2d[dropped], prev_2d)]
+    seg = dropped[~np.isin(dropped, regrouped) & ~np.isin(dropped, floor_only) & may[dropped]]
     if not len(seg):
-        return regrouped, groups, to_plane, fresh
-    g = np.zeros(len(track2d), np.int64) if groups is None else groups.copy()
+        return regrouped, groups, to_plane
+    g = np.zeros(len(may), np.int64) if groups is None else groups.copy()
     g[seg] = g.max() + 1 + np.arange(len(seg))
     counts["segments_alone"] += len(seg)
-    return (np.union1d(regrouped, seg), g, np.union1d(to_plane, seg), np.union1d(fresh, seg))
+    return np.union1d(regrouped, seg), g, np.union1d(to_plane, seg)
 
 
-def continuing(pl: WindowTracklets3D, track2d: np.ndarray, prev_2d: np.ndarray) -> np.ndarray:
-    """(M,) bool: the plane tracklets of one view whose segment's 2D track (``track2d`` (K,),
-    indexed by ``pl.members``) belonged to a 3D tracklet of the previous window (``prev_2d``)."""
+def continuing(pl: WindowTracklets3D, may: np.ndarray) -> np.ndarray:
+    """(M,) bool: the plane tracklets of one view whose segment may continue a track from its view
+    alone (``may`` (K,) bool per segment, indexed by ``pl.members``; see :func:`alone`)."""
     m = pl.members
     one = (m >= 0).sum(axis=1) == 1
-    return one & np.isin(track2d[m.max(axis=1)], prev_2d)
+    return one & may[m.max(axis=1)]

@@ -332,7 +332,10 @@ class Tracker:
             WindowTracklets3D.empty(start, self.width, self.n_cameras)
         solo, floor_rows = continuation_only(len(cur), tri, floor, plane, self.counts)
         if plane is not None and len(self._regrouped):  # a regrouped pair only continues a track (.regroup)
-            solo[len(cur) - len(plane):] |= np.isin(plane.members, self._regrouped).any(axis=1)
+            mine = np.isin(plane.members, self._regrouped).any(axis=1)
+            solo[len(cur) - len(plane):] |= mine
+            if self.method.alone:  # ... the one its 2D tracks belonged to, wherever the wrong cluster had put it
+                floor_rows[len(cur) - len(plane):] |= mine & ((plane.members >= 0).sum(axis=1) >= 2)
         cur = self.linker.step(cur, segs.track2d, solo, floor_rows)
         self.records.add(cur, segs, self._window_index)
         self._window_index += 1
