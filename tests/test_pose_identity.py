@@ -74,6 +74,7 @@ def test_a_lone_view_is_judged_by_the_tracks_neighbouring_frames():
     assert _views(rig, far).all()
     box = _box_size(u, v, ok)
     assert torso_views(rig.projections[:1], u[:1], v[:1], ok[:1], box[:1], list(COCO17.joints)).all()  # one camera
+    assert torso_views(rig.projections, u, v, ok, box, [f"j{k}" for k in range(17)]).all()  # no torso named
     loose = TorsoIdentity(tol_time=1.0)  # a lone view far off the track's path passes a loose tolerance
     assert torso_views(rig.projections, u, v, ok, box, list(COCO17.joints), loose).all()
 

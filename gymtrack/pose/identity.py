@@ -21,8 +21,8 @@ hips) is the part a pose model finds most reliably, so it says whose body a view
 A view's torso error is the median over its found torso joints of the reprojection distance
 over the pose's box (the larger side of its keypoints' extent), in the view's best reading (as
 found, left/right swapped, legs swapped: a swapped view shows the same body, and the consensus
-after this rule reads it right); each pair is tried with its second view as found and swapped. Shapes like :mod:`.lift`:
-u, v, ok (C, J, T); box (C, T).
+after this rule reads it right); each pair is tried with its second view as found and swapped.
+Shapes like :mod:`.lift`: u, v, ok (C, J, T); box (C, T).
 """
 
 from __future__ import annotations
@@ -51,35 +51,37 @@ class TorsoIdentity:
     min_joints: int = 3
 
 
-def _errors(P, X, u, v, ok, box):
-    """(C, T) median torso reprojection error over box of X (3, K T); NaN where not judged."""
-    C, K, T = u.shape
-    pu, pv = (p.reshape(C, K, T) for p in project(P, X))
-    r = np.sort(np.where(ok, np.hypot(pu - u, pv - v), np.nan), axis=1)  # NaN last
-    n = np.isfinite(r).sum(axis=1)  # a median by sorting: nanmedian is slow on short axes
+def _median(r):
+    """(C, T) median over axis 1 of r (C, K, T), NaN ignored; by sorting (nanmedian is slow on short axes)."""
+    r = np.sort(r, axis=1)  # NaN last
+    n = np.isfinite(r).sum(axis=1)
     lo = np.take_along_axis(r, np.clip((n - 1) // 2, 0, None)[:, None], 1)[:, 0]
     hi = np.take_along_axis(r, (n // 2)[:, None], 1)[:, 0]
-    return np.where(n > 0, 0.5 * (lo + hi), np.nan) / box
+    return np.where(n > 0, 0.5 * (lo + hi), np.nan)
 
 
 def _errors_any(P, X, u, v, ok, box):
-    """:func:`_errors` in the view's best reading: as found, left/right swapped, legs swapped
-    (a swapped view is the same body; the consensus after this rule reads it right)."""
-    e = [_errors(P, X, u[:, r], v[:, r], ok[:, r], box) for r in READINGS]
-    return np.fmin(np.fmin(e[0], e[1]), e[2])
+    """(C, T) median torso reprojection error of X (3, K T) over box, in each view's best reading
+    (as found, left/right swapped, legs swapped: a swapped view is the same body; the consensus
+    after this rule reads it right); NaN where not judged. u, v, ok (C, K, T)."""
+    C, K, T = u.shape
+    pu, pv = (p.reshape(C, K, T) for p in project(P, X))  # projected once, compared in each reading
+    e = [_median(np.where(ok[:, r], np.hypot(pu - u[:, r], pv - v[:, r]), np.nan)) for r in READINGS]
+    return np.fmin(np.fmin(e[0], e[1]), e[2]) / box
 
 
 def torso_views(P: np.ndarray, u: np.ndarray, v: np.ndarray, ok: np.ndarray, box: np.ndarray, joints: list[str],
                 opt: TorsoIdentity | None = TorsoIdentity(), info: dict | None = None) -> np.ndarray:
     """(C, T) bool: the views whose pose shows the track's body (module doc); views without a
-    pose are True. ``joints``: the skeleton's joint names (no torso joints: nothing judged).
+    pose are True. ``joints``: the skeleton's joint names (without all four torso joints:
+    nothing judged).
     info: a dict given is filled with ``decided`` (T,) and ``by_time`` (T,) (frames judged by
     the neighbouring frames)."""
     C, J, T = u.shape
     keep = np.ones((C, T), bool)
-    idx = [joints.index(n) for n in TORSO if n in joints]
-    if opt is None or len(idx) < opt.min_joints or C < 2:
+    if opt is None or C < 2 or not all(n in joints for n in TORSO):
         return keep
+    idx = [joints.index(n) for n in TORSO]
     tu, tv, tok = u[:, idx], v[:, idx], ok[:, idx]
     K = len(idx)
     judged = tok.sum(axis=1) >= opt.min_joints  # (C, T)
