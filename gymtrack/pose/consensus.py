@@ -120,6 +120,12 @@ def view_consensus(P: np.ndarray, u: np.ndarray, v: np.ndarray, ok: np.ndarray, 
                      swap_legs=swap_legs if legs is not None else None)
 
 
+def leg_joints(skeleton) -> np.ndarray:
+    """(J,) bool: the skeleton's leg joints (hips down), by name (a model swaps the legs alone too)."""
+    parts = ("hip", "knee", "ankle", "heel", "toe", "foot")
+    return np.array([any(p in name for p in parts) for name in skeleton.joints], bool)
+
+
 def settle_ties(X: np.ndarray, tie: np.ndarray, flip: np.ndarray) -> np.ndarray:
     """(T,) bool: which tie frames to relabel (left <-> right) so they match their neighbours.
 

@@ -10,10 +10,11 @@ with Eq. 3. ``method="dlt"`` is exactly that, per joint over the views that foun
    each joint's 2D noise level on this track (:func:`noise_level`), and the gate a view must
    meet is a multiple of it (it follows the pose model's noise, the joint's difficulty and the
    calibration's own error; a fixed share of the box rejected a third of the good views);
-2. a per-frame consensus over views (:mod:`.consensus`) that drops views whose reprojection
-   disagrees and reads a view with left and right exchanged -- whole body or legs only -- where
-   that fits clearly better; where no two views agree, every view is kept (flagged, low score):
-   robust never estimates fewer joints than ``dlt`` because the consensus failed;
+2. views whose torso shows another body are set aside (:mod:`.identity`); a per-frame consensus
+   (:mod:`.consensus`) drops views whose reprojection disagrees and reads a view with left and
+   right exchanged -- whole body or legs only -- where that fits clearly better; where no two
+   views agree, every view is kept (flagged, low score): robust never estimates fewer joints
+   than ``dlt`` because the consensus failed;
 3. per joint, the worst view is dropped when its reprojection exceeds the gate (3+ views);
 4. the cascade for joints (:mod:`.anchor`): a joint seen by one view, or only by an opposite
    pair, is anchored on the plane through the target's centre parallel to the apparatus
@@ -41,7 +42,8 @@ from ..geometry.triangulation import triangulate_views
 from ..poses import HOW_FUSED, HOW_NONE, HOW_PLANE, HOW_TRIANGULATED, Poses3D
 from ..skeletons import Skeleton
 from .anchor import anchor_on_plane, bone_lengths, given_lengths, lines_of_sight, opposite_only, plane_spread, pull_to_bones
-from .consensus import settle_ties, view_consensus
+from .consensus import leg_joints, settle_ties, view_consensus
+from .identity import TorsoIdentity, torso_views
 from .dlt import gauss_newton, residuals, weighted_dlt
 from .limb_check import LimbCheck, check_arms
 from .smooth import smooth_track
@@ -123,11 +125,12 @@ class LiftOptions:
     bone_lengths_m: tuple[float, ...] | None = None
     arms: LimbCheck | None = None  #: arms against the track's bones and motion (:mod:`.limb_check`); None = off
     temporal: TemporalPrior | None = TemporalPrior()  #: doubtful joints by the track's neighbouring frames (:mod:`.temporal`)
+    identity: TorsoIdentity | None = TorsoIdentity()  #: views showing another body set aside first (:mod:`.identity`)
 
     def __post_init__(self) -> None:
         for f in fields(self):
             val = getattr(self, f.name)
-            if f.name in ("arms", "temporal", "decline_disagreeing", "bone_lengths_m"):
+            if f.name in ("arms", "temporal", "identity", "decline_disagreeing", "bone_lengths_m"):
                 continue
             if isinstance(val, bool) or not isinstance(val, (int, float)) or not np.isfinite(val) or val < 0:
                 raise InputError(f"must be a finite number >= 0, got {val!r}", source="LiftOptions", field=f.name)
@@ -151,7 +154,7 @@ class Lifted:
     (``views_dropped``, ``views_swapped``, ``views_legs_swapped``, ``frames_fallback`` (no two
     views agreed: all kept), ``joints_fallback``, ``frames_relabelled``, ``joint_views_dropped``,
     ``joints_plane``, ``joints_fused``, ``joints_bone_pulled``, ``joints_smoothed_outliers``,
-    ``joints_unobservable``: weak joints left without a position).
+    ``joints_unobservable`` (weak, no position), ``views_foreign``); foreign (T, C): views set aside (:mod:`.identity`).
     """
 
     xyz: np.ndarray
@@ -160,6 +163,7 @@ class Lifted:
     reproj_px: np.ndarray
     how: np.ndarray
     counts: dict[str, int] = field(default_factory=dict)
+    foreign: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self.xyz)
@@ -313,6 +317,8 @@ def _robust(rig, P, u, v, ok, sc, skeleton, centre, normal, opt) -> Lifted:
     C, J, T = u.shape
     flip = np.asarray(skeleton.flip, dtype=np.int64)
     box = _box_size(u, v, ok)
+    mine = torso_views(P, u, v, ok, box, list(skeleton.joints), opt.identity)  # a neighbour's pose: set aside
+    foreign, ok = ok.any(axis=1) & ~mine, ok & mine[:, None, :]
     X_all, w_all, sigma = _all_views(P, u, v, ok, sc, box, opt)
     gate = _gate(box, sigma, opt)
     legs = leg_joints(skeleton)
@@ -327,7 +333,7 @@ def _robust(rig, P, u, v, ok, sc, skeleton, centre, normal, opt) -> Lifted:
     swap = sw.any(axis=1)
     counts = {"views_dropped": int((present & ~keep).sum()), "views_swapped": int((sw[:, ~legs].any(axis=1) & swap).sum()),
               "views_legs_swapped": int((~sw[:, ~legs].any(axis=1) & swap).sum()), "frames_fallback": int(fallback.sum()),
-              "joints_declined": int(ok[:, :, declined].any(axis=0).sum())}
+              "joints_declined": int(ok[:, :, declined].any(axis=0).sum()), "views_foreign": int(foreign.sum())}
     u, v, ok, sc = (np.where(sw, a[:, flip], a) for a in (u, v, ok, sc))
     use = ok & keep[:, None, :]
     w = np.where(use, sc / box[:, None, :], 0.0).reshape(C, -1)
@@ -366,13 +372,7 @@ def _robust(rig, P, u, v, ok, sc, skeleton, centre, normal, opt) -> Lifted:
     mean_sc = np.where(use, sc, 0.0).sum(axis=0).T / np.maximum(use.sum(axis=0).T, 1)
     X3, outliers = smooth_track(X3, mean_sc * how_w, opt.smooth_half_window, opt.smooth_outlier_m)
     counts["joints_smoothed_outliers"] = int(outliers.sum())
-    return _finish(P, X3, u, v, use, sc, how, gate, opt, counts, np.where(fallback, opt.fallback_score_factor, 1.0))
-
-
-def leg_joints(skeleton: Skeleton) -> np.ndarray:
-    """(J,) bool: the skeleton's leg joints (hips down), by name."""
-    parts = ("hip", "knee", "ankle", "heel", "toe", "foot")
-    return np.array([any(p in name for p in parts) for name in skeleton.joints], bool)
+    return _finish(P, X3, u, v, use, sc, how, gate, opt, counts, np.where(fallback, opt.fallback_score_factor, 1.0), foreign.T)
 
 
 def _cascade(rig, X3, u, v, use, sc, box, centre, normal, skeleton, opt):
@@ -425,7 +425,7 @@ def _cascade(rig, X3, u, v, use, sc, box, centre, normal, skeleton, opt):
     return X3, how.T.copy(), weak.T, counts
 
 
-def _finish(P, X3, u, v, use, sc, how, gate, opt, counts, frame_factor=1.0) -> Lifted:
+def _finish(P, X3, u, v, use, sc, how, gate, opt, counts, frame_factor=1.0, foreign=None) -> Lifted:
     """Reprojection errors and scores of the final joints X3 (T, J, 3); gate (C, J, T) pixels;
     frame_factor (T,) or scalar multiplies the scores (fallback frames)."""
     C, J, T = u.shape
@@ -443,4 +443,4 @@ def _finish(P, X3, u, v, use, sc, how, gate, opt, counts, frame_factor=1.0) -> L
     factor = np.where(how == HOW_TRIANGULATED, 1.0, opt.plane_score_factor) * np.reshape(frame_factor, (-1, 1))
     score = np.where(found & (n_views.T > 0), np.clip(mean_sc.T * np.nan_to_num(quality.T) * factor, 0, 1), 0.0)
     return Lifted(xyz=X3, score=score, n_views=np.where(found, n_views.T, 0).astype(np.int64),
-                  reproj_px=np.where(found, reproj.T, np.nan), how=how, counts=counts)
+                  reproj_px=np.where(found, reproj.T, np.nan), how=how, counts=counts, foreign=foreign)

@@ -15,9 +15,11 @@ misdirected pose. This module is the glue around the parts:
 3. the lifted joints become :class:`gymtrack.poses.Poses3D` rows (frames with at least one joint).
 
 Every input pose is accounted for (:attr:`PoseStageResult.counts`): rejected / unassigned by the
-assignment; of the assigned ones, ``used`` in a lifted sequence, ``duplicate`` (another pose of
-the same track, frame and view had the higher mean score) or ``not_lifted`` (its track or frame is
-not one that was lifted, e.g. a coach's pose without ``all_tracks``).
+assignment; of the assigned ones, ``used`` in a lifted sequence, ``foreign_torso`` (placed, but
+set aside by the lifting: its torso shows another body, :mod:`gymtrack.pose.identity`),
+``duplicate`` (another pose of the same track, frame and view had the higher mean score) or
+``not_lifted`` (its track or frame is not one that was lifted, e.g. a coach's pose without
+``all_tracks``).
 """
 
 from __future__ import annotations
@@ -74,12 +76,14 @@ class PoseStageResult:
     assignment: every input pose with its status and track id.
     counts: read, given, assigned, unassigned, rejected (+ kinds), used, duplicate, not_lifted.
     seconds: time spent lifting (assignment and grouping included).
+    set_aside: (N,) bool per input pose: assigned, then set aside by the lifting (``foreign_torso``).
     """
 
     poses3d: Poses3D
     assignment: Assignment
     counts: dict = field(default_factory=dict)
     seconds: float = 0.0
+    set_aside: np.ndarray | None = None
 
     @property
     def poses2d(self) -> Poses2D:
@@ -223,7 +227,7 @@ def lift_poses(result: TrackResult, rig: Rig, scene: Scene, poses: Poses2D, all_
     mine = np.flatnonzero(tid >= 0)
     assigned = a.poses.subset(mine)
     seqs = track_sequences(result.tracks) if all_tracks else [target_sequence(result.target)]
-    used, dup = np.zeros(len(assigned), bool), np.zeros(len(assigned), bool)
+    used, dup, aside = np.zeros(len(assigned), bool), np.zeros(len(assigned), bool), np.zeros(len(assigned), bool)
     parts, no_pose = [], 0
     for seq in seqs:
         if not len(seq.frame):
@@ -238,6 +242,9 @@ def lift_poses(result: TrackResult, rig: Rig, scene: Scene, poses: Poses2D, all_
         normal = nearest_plane_normal(scene, seq.centre) if anchor else None
         lifted = lift_track(rig, kp, assigned.skeleton, method=method, centre=seq.centre if normal is not None else None,
                             plane_normal=normal, options=options)
+        if lifted.foreign is not None:  # placed, then set aside by the lifting as another body's
+            r = np.flatnonzero(u)
+            aside[r] = lifted.foreign[np.searchsorted(seq.frame, assigned.frame[r]), assigned.camera[r]]
         has = np.all(np.isfinite(lifted.xyz), axis=-1).any(axis=1)
         parts.append(Poses3D(seq.frame[has], seq.track_id[has], lifted.xyz[has], lifted.score[has], lifted.n_views[has],
                              lifted.reproj_px[has], lifted.how[has], assigned.skeleton))
@@ -253,11 +260,14 @@ def lift_poses(result: TrackResult, rig: Rig, scene: Scene, poses: Poses2D, all_
                       f"in the wrong joint order ({poses.skeleton.name}): check --skeleton", GymtrackWarning, stacklevel=2)
     counts = {"read": len(poses), **{k: v for k, v in a.counts.items() if k != "total"},
               "unknown_track": int(unknown.sum()), "same_body": int(same.sum()),
-              "foreign_moved": int((foreign & (tid >= 0)).sum()), "foreign_dropped": int((foreign & (tid < 0)).sum()), "used": int(used.sum()), "duplicate": int((dup & ~used).sum()),
+              "foreign_moved": int((foreign & (tid >= 0)).sum()), "foreign_dropped": int((foreign & (tid < 0)).sum()),
+              "used": int((used & ~aside).sum()), "foreign_torso": int(aside.sum()), "duplicate": int((dup & ~used).sum()),
               "not_lifted": int((~used & ~dup).sum()), "scores_clipped": clipped,
               "tracks_without_pose": no_pose if all_tracks else 0,
               "bone_length_cv": round(check["bone_cv"], 3), "left_right_asymmetry": round(check["asymmetry"], 3)}
-    return PoseStageResult(p3, a, counts, time.perf_counter() - t0)
+    flagged = np.zeros(len(poses), bool)
+    flagged[mine] = aside
+    return PoseStageResult(p3, a, counts, time.perf_counter() - t0, flagged)
 
 
 def pose_model_boxes(result: TrackResult, all_tracks: bool = False) -> Detections:
