@@ -122,9 +122,12 @@ def test_detect_gives_back_the_routine_detections(world):
     assert res.exit_code != 0 and "--force" in str(res.exception)
 
 
-def test_run_writes_every_output_and_eval_scores_it(world):
-    routine = world["routine"]
-    out_dir = world["root"] / "out"
+def test_run_writes_every_output_and_eval_scores_it(world, tmp_path):
+    # (its own copy: run needs the videos only; eval and pose read the routine's detections, put
+    # back from the truth, whatever other tests of this module did or did not write)
+    routine = tmp_path / "routine"
+    shutil.copytree(world["routine"], routine, ignore=shutil.ignore_patterns("detections"))
+    out_dir = tmp_path / "out"
     out = invoke("run", routine, "--out", out_dir, "--detector", world["models"] / "det.onnx",
                  "--pose-model", world["models"] / "pose.onnx", "--models", world["models"] / "models.yaml")
     assert "Time per stage" in out and "lift" in out
@@ -141,6 +144,7 @@ def test_run_writes_every_output_and_eval_scores_it(world):
     half = 1.25 * np.maximum(p.bbox[:, 2:], p.bbox[:, 3:] * 0.75) / 2  # the crop: box grown to 3:4, x 1.25
     off = np.abs(p.keypoints[..., :2] - centre[:, None]) / half[:, None]
     assert np.nanmax(off) <= 1.0 and np.nanmax(off) > 0.3
+    shutil.copytree(world["truth"], routine / "detections")
     scored = invoke("eval", routine, out_dir)
     assert "AED" in scored or "MOTA" in scored or "target" in scored.lower()
     # the pose stage on its own, from the same track outputs
