@@ -11,8 +11,8 @@ choices as plain arguments, so no stage tests a mode's name. :data:`RECIPES` nam
   floor's ghost test, Eq. 4 on the tracklet's mean, the image-motion tracker at low
   frame rates, duplicate exclusion, the older track kept, Eq. 12 over the best-observed estimates,
   one view alone only inside the performance space, the shorter end-box hold, the target's
-  handover and its ballistic flights, a dropped cluster's opposite pairs regrouped on the plane and its
-  segments that continued a track continuing it alone, Eq. 13
+  handover and its ballistic flights, a dropped cluster's opposite pairs regrouped on the plane and
+  rejoining their track, Eq. 13
   counting a raised point away from the apparatus only for a flight's length, the identification's
   look-back following the track its target continues; ray/plane fusion and
   online plane refinement where the scene asks for them).
@@ -79,11 +79,10 @@ class Method:
         views nearest each other by Eq. 2 goes on to the plane stage as a pair of its own
         (:mod:`gymtrack.tracking.regroup`): a third view's wrong segment no longer takes the
         gymnast's opposite pair down with it.
-    alone: a dropped cluster's segment (Eq. 4 or the ghost test) whose 2D track belonged to a 3D
-        track of the previous window goes to the plane alone and only continues a track, and a regrouped pair continues the
-        track its 2D tracks belonged to wherever the wrong cluster had put it
-        (:func:`gymtrack.tracking.regroup.alone`): a wrong third view no longer cuts a gymnast
-        from her track.
+    rejoin: a regrouped pair continues the track its 2D tracks belonged to wherever the wrong
+        cluster had put it (linked by its 2D tracks), and a pair's view whose partner did not
+        fuse with it continues its own track alone where it looks like a gymnast on the
+        apparatus (:mod:`gymtrack.tracking.regroup`).
     reidentify: the held target gives way to another track that qualified (Eq. 13) seen in
         more views than the target (triangulated or on the plane alike) in more than Delta / 2
         of the last Delta frames (:class:`gymtrack.tracking.identify.TargetSelector`):
@@ -117,7 +116,7 @@ class Method:
     handover: bool = False
     ballistic: bool = False
     regroup: bool = False
-    alone: bool = False
+    rejoin: bool = False
     reidentify: bool = False
     reach: bool = False
     chain: bool = False
@@ -153,7 +152,7 @@ RECIPES: dict[str, Method] = {
     "cascade+": Method(image_motion=True, outliers_at_mean=True, floor=True, ghost_test=True, fusion=True,
                        keep_older=True, exclusion=True, best_estimates=True, solo_inside=True,
                        refine_plane=True, hold_seconds=0.2, handover=True, ballistic=True, regroup=True,
-                       alone=True, reidentify=True, reach=True, chain=True, name="cascade+"),
+                       rejoin=True, reidentify=True, reach=True, chain=True, name="cascade+"),
 }
 MODES: tuple[str, ...] = tuple(RECIPES)
 #: the recipe a Tracker, the offline runners, batch and the command line use unless told

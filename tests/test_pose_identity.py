@@ -48,7 +48,7 @@ def test_a_neighbours_view_among_three_agreeing_views_is_set_aside(seed):
     # lifted: the wrists are the track's, not a blend with the neighbour's, and the view is counted
     lw = COCO17.index(["left_wrist", "right_wrist"])
     err = {}
-    for name, opt in (("rule", LiftOptions()), ("off", LiftOptions(identity=None))):
+    for name, opt in (("rule", LiftOptions(identity=TorsoIdentity())), ("off", LiftOptions())):
         L = lift_track(rig, kp, COCO17, centre=centre, plane_normal=np.array([0.0, 0.0, 1.0]), options=opt)
         err[name] = np.linalg.norm(L.xyz[10:16][:, lw] - X[10:16][:, lw], axis=-1).max()
         if name == "rule":

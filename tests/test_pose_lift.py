@@ -14,6 +14,7 @@ from gymtrack.errors import InputError
 from gymtrack.geometry import Camera, Plane, Rig, intersect_rays_plane
 from gymtrack.geometry.camera import look_at
 from gymtrack.pose import LiftOptions, lift_track
+from gymtrack.pose.identity import TorsoIdentity
 from gymtrack.pose.dlt import fuse_rays_plane, rays
 from gymtrack.pose.snapshots import measure_noise
 from gymtrack.pose.smooth import smooth_track
@@ -164,7 +165,8 @@ def test_an_outlier_view_is_dropped(rng):
     other = observe(rig, X + np.array([0.7, 0.4, 0.0]), 1.0, rng)  # another person in view 1's crop
     kp[20:70, 1] = other[20:70, 1]
     dlt = lift_track(rig, kp, COCO17, "dlt")
-    rob = lift_track(rig, kp, COCO17, options=NO_SMOOTH)
+    assert lift_track(rig, kp, COCO17, options=NO_SMOOTH).counts["views_dropped"] == 50  # the consensus drops it
+    rob = lift_track(rig, kp, COCO17, options=replace(NO_SMOOTH, identity=TorsoIdentity()))
     assert rob.counts["views_foreign"] == 50 and rob.foreign[20:70, 1].all()  # its torso: another body (.identity)
     assert rob.counts["views_dropped"] <= 2  # so the consensus has (nearly) nothing left to drop
     assert np.all(rob.n_views[20:70] == 3)
@@ -182,12 +184,13 @@ def test_two_views_of_different_bodies_still_give_every_joint_dlt_gives(rng):
     other = observe(rig, X + np.array([0.9, 0.5, 0.0]), 1.0, rng)
     kp[10:20, 1] = other[10:20, 1]  # view 1's crop holds another body for 10 frames
     dlt = lift_track(rig, kp, COCO17, "dlt")
-    ruled = lift_track(rig, kp, COCO17, centre=centre, plane_normal=np.array([0.0, 0.0, 1.0]), options=NO_SMOOTH)
+    ruled = lift_track(rig, kp, COCO17, centre=centre, plane_normal=np.array([0.0, 0.0, 1.0]),
+                       options=replace(NO_SMOOTH, identity=TorsoIdentity()))
     assert ruled.foreign[10:20, 1].all() and ruled.counts["views_foreign"] <= 12  # (a body's own view, rarely)
     assert np.isfinite(ruled.xyz[10:20]).all(-1).mean() > 0.8  # view 0 alone, on the plane through the centre
     e_rule, e_dlt = (np.nanmedian(np.linalg.norm(L.xyz[10:20] - X[10:20], axis=-1)) for L in (ruled, dlt))
     assert e_rule < 0.5 * e_dlt  # nearer the truth than the mixed two-body triangulation
-    rob = lift_track(rig, kp, COCO17, options=replace(NO_SMOOTH, identity=None))
+    rob = lift_track(rig, kp, COCO17, options=NO_SMOOTH)
     assert rob.counts["frames_fallback"] == 10 and rob.counts["views_dropped"] == 0
     np.testing.assert_array_equal(np.isfinite(rob.xyz), np.isfinite(dlt.xyz))
     assert np.all(rob.score[10:20] <= 0.3 * 0.9 + 1e-9)  # flagged by its score

@@ -86,7 +86,7 @@ def test_views_of_different_bodies_are_declined_not_guessed(rng):
     X, _ = body_track(40)
     kp = observe(rig, X, 1.0, rng)
     kp[10:20, 1] = observe(rig, X + np.array([0.9, 0.5, 0.0]), 1.0, rng)[10:20, 1]  # view 1 holds another body
-    opt = LiftOptions(smooth_half_window=0, temporal=None, identity=None)  # the fallback itself (.identity would set view 1 aside)
+    opt = LiftOptions(smooth_half_window=0, temporal=None)
     keep = lift_track(rig, kp, COCO17, options=opt)
     dec = lift_track(rig, kp, COCO17, options=replace(opt, decline_disagreeing=True))
     assert keep.counts["joints_declined"] == 0 and np.isfinite(keep.xyz[10:20]).all()

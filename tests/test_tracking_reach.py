@@ -147,9 +147,7 @@ def vault_phantom():
 
 def test_reach_gives_up_a_phantom_in_the_air_and_finds_the_gymnast(vault_phantom):
     rig, scene, det, sim = vault_phantom
-    # (alone off: with it, this routine's phantom stands in the air for 40 points instead of
-    # 340, under a flight's length, and the rule has nothing to set aside)
-    plus = RECIPES["cascade+"].without("alone")
+    plus = RECIPES["cascade+"]
     on, off = (track_detections(rig, scene, det, mode=m) for m in (plus, plus.without("reach")))
     # only the target changes
     assert np.array_equal(on.tracks.track_id, off.tracks.track_id) and np.array_equal(on.tracks.xyz, off.tracks.xyz)

@@ -296,8 +296,8 @@ def beam_2():
 
 
 def test_regroup_puts_the_dropped_clusters_opposite_pair_on_the_plane(beam_2):
-    # (alone off: its one-view continuation also keeps this gymnast, on the plane from one view)
-    base = PLUS.without("alone")
+    # (rejoin off: it also keeps this gymnast, on the plane from one view)
+    base = PLUS.without("rejoin")
     on, off = _run(beam_2, base, "beam2"), _run(beam_2, base.without("regroup"), "beam2")
     assert on.summary["segments_regrouped"] > 0 and "segments_regrouped" not in off.summary
     sim = beam_2[3]

@@ -60,6 +60,7 @@ def lift_mvor(mv, detector: str = "openpose", frames: np.ndarray | None = None,
     body), "bone_lengths_m": the pooled lengths}`` over the K persons. one_body, plane_anchor,
     decline, bones: robust's rules (module doc), for the ablation.
     """
+    from ..pose.identity import TorsoIdentity
     from ..pose.lift import LiftOptions, lift_track
     from ..pose.snapshots import measure_noise, pooled_bone_lengths
 
@@ -75,7 +76,8 @@ def lift_mvor(mv, detector: str = "openpose", frames: np.ndarray | None = None,
     out = {"gt": mv.joints3d[f_idx, p_idx], "views": (kp[..., 2] > 0).any(-1).sum(-1)}
     # one snapshot is too little to measure the detector's and calibration's noise on: pool it
     # over every person (from their own residuals, no ground truth) for robust's gate
-    opt = LiftOptions(noise_frac=measure_noise(mv.rig, kp, mv.skeleton)) if len(kp) else LiftOptions()
+    # (several people in every view: a neighbour's body in a person's view is set aside, pose.identity)
+    opt = LiftOptions(noise_frac=measure_noise(mv.rig, kp, mv.skeleton) if len(kp) else 0.0, identity=TorsoIdentity())
     out["noise_frac"] = opt.noise_frac
     kp_robust = kp.copy()  # robust's own rules; dlt keeps the protocol's keypoints as they are
     out["same_body"] = one_body_one_person(mv.rig, mv.skeleton, kp_robust, f_idx) if one_body else 0

@@ -10,7 +10,7 @@ with Eq. 3. ``method="dlt"`` is exactly that, per joint over the views that foun
    each joint's 2D noise level on this track (:func:`noise_level`), and the gate a view must
    meet is a multiple of it (it follows the pose model's noise, the joint's difficulty and the
    calibration's own error; a fixed share of the box rejected a third of the good views);
-2. views whose torso shows another body are set aside (:mod:`.identity`); a per-frame consensus
+2. views whose torso shows another body are set aside (:mod:`.identity`; every track lifted); a per-frame consensus
    (:mod:`.consensus`) drops views whose reprojection disagrees and reads a view with left and
    right exchanged -- whole body or legs only -- where that fits clearly better; where no two
    views agree, every view is kept (flagged, low score): robust never estimates fewer joints
@@ -125,7 +125,7 @@ class LiftOptions:
     bone_lengths_m: tuple[float, ...] | None = None
     arms: LimbCheck | None = None  #: arms against the track's bones and motion (:mod:`.limb_check`); None = off
     temporal: TemporalPrior | None = TemporalPrior()  #: doubtful joints by the track's neighbouring frames (:mod:`.temporal`)
-    identity: TorsoIdentity | None = TorsoIdentity()  #: views showing another body set aside first (:mod:`.identity`)
+    identity: TorsoIdentity | None = None  #: views showing another body set aside first (:mod:`.identity`); the stage's all-tracks default
 
     def __post_init__(self) -> None:
         for f in fields(self):

@@ -40,6 +40,7 @@ from ..poses import HOW_NAMES, HOW_NONE, Poses2D, Poses3D
 from ..tracking.types import Target, Tracks3D, TrackResult
 from .assign import GIVEN, Assignment, assign_poses
 from .exclusive import exclusive_bodies, foreign_bodies
+from .identity import TorsoIdentity
 from .lift import LiftOptions, lift_track
 from .skeleton_check import ASYMMETRY_MAX, BONE_CV_MAX, skeleton_consistency
 
@@ -190,7 +191,9 @@ def lift_poses(result: TrackResult, rig: Rig, scene: Scene, poses: Poses2D, all_
     result: the tracker's output (``tracks``, ``boxes``, ``target``, ``target_boxes``), e.g. from
         :func:`gymtrack.tracking.offline.track_detections` or :func:`read_track_result`.
     poses: the 2D poses of the routine (any camera order; matched to ``rig`` by name).
-    all_tracks: lift every 3D track (rows per (frame, track)); default: the target only.
+    all_tracks: lift every 3D track (rows per (frame, track)); default: the target only. With
+        ``all_tracks`` and no ``options``, views whose torso shows another body are set aside
+        (:mod:`gymtrack.pose.identity`).
     method: ``dlt`` (paper Eq. 3 per joint) | ``robust``; plane: with ``robust``, pass the centre
         and the nearest plane's normal (False: the ablation "robust without plane anchoring").
     min_iou: the assignment's gate; joints: also assign by the joints' epipolar agreement where
@@ -200,7 +203,9 @@ def lift_poses(result: TrackResult, rig: Rig, scene: Scene, poses: Poses2D, all_
     if method not in LIFT_METHODS:
         raise InputError(f"unknown lifting method {method!r}; choose one of {', '.join(LIFT_METHODS)}", field="--lift")
     t0 = time.perf_counter()
-    options = options or LiftOptions()
+    # a neighbour's body in a track's crop: set aside where every track is lifted (a crowd); the
+    # target alone keeps every view (on the suites the rule set aside the gymnast's own views too)
+    options = options or LiftOptions(identity=TorsoIdentity() if all_tracks else None)
     poses = _rig_order(poses, rig)
     clipped = int((poses.keypoints[..., 2] > 1).sum())
     if clipped:  # OpenPose's heatmap peaks reach a little above 1: a weight, so clip

@@ -23,7 +23,7 @@ import numpy as np
 from .floor import drop_floor_ghosts, floor_split
 from .plane_fallback import plane_split
 from .reconstruct import cluster_members, fallback_segments, opposite_clusters, triangulate_clusters
-from .regroup import alone, continuing, gymnast_only, pairs_only, regroup
+from .regroup import continuing, gymnast_only, pairs_only, regroup
 from .types import WindowTracklets, WindowTracklets3D
 
 __all__ = ["triangulation_stage", "plane_stage", "drop_outliers"]
@@ -55,7 +55,7 @@ def triangulation_stage(t, segs: WindowTracklets, labels: np.ndarray | None, D2:
     # (the venue check leaves out the boxes the image's edge cuts: their centre is not the person's)
     t.venue.observe(segs.start, segs.box, segs.observed & ~t.table.cut(segs.det), members[multi])
     tri = tri if fused is None else WindowTracklets3D.concat([tri, fused])
-    tested = tri.members if (t.method.regroup or t.method.alone) and D2 is not None else None
+    tested = tri.members if t.method.regroup and D2 is not None else None
     if t.method.ghost_test:  # Eq. 4, then the floor's ghost test; a ghost's segments may go to the floor only
         if t._space_mean is None:  # (the paper's Eq. 4 first; by the mean it runs inside the ghost test's call)
             tri = drop_outliers(t, tri)
@@ -67,10 +67,6 @@ def triangulation_stage(t, segs: WindowTracklets, labels: np.ndarray | None, D2:
     if tested is not None and t.method.regroup:  # a dropped cluster's opposite pairs on to the plane (.regroup)
         t._regrouped, t._groups, to_plane, t._floor_only, t._fresh = regroup(
             tested, tri.members, D2, segs.camera, t.opposite, p.cluster_2d, to_plane, t._floor_only, t.counts)
-    if tested is not None and t.method.alone:  # and its segments that continued a track, alone (.regroup)
-        # (only a 2D track that belonged to a track: a new one in a wrong cluster is as often the wrong view)
-        t._regrouped, t._groups, to_plane = alone(tested, tri.members, np.isin(segs.track2d, t.linker.prev_2d),
-                                                  t._regrouped, t._groups, to_plane, t._floor_only, t.counts)
     if t.refiner is not None:  # the plane's points: what passed the tests, and the opposite pairs
         t.refiner.observe(segs, tri, members[fallback & ((members >= 0).sum(axis=1) >= 2)])
     t.counts["clusters_triangulated"] += len(tri)
@@ -108,7 +104,7 @@ def plane_stage(t, segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray |
                      t.method.outliers_at_mean, t._groups)
     if pl is not None and len(t._regrouped):  # only a gymnast's regrouped pair is kept (.regroup)
         pl = gymnast_only(pl, t._regrouped, t.perf_space, t.scene.target, t.counts,
-                          continuing(pl, t.linker.may_continue_alone(segs.track2d)) if t.method.alone else None)
+                          continuing(pl, t.linker.may_continue_alone(segs.track2d)) if t.method.rejoin else None)
     if pl is not None and t.fusion is not None:  # two-view plane tracklets fused with the plane (.fusion)
         pl = drop_outliers(t, t.fusion.refine(segs, pl))  # (Eq. 4 on the fused points too)
     return pl, floor

@@ -235,16 +235,18 @@ class WindowLinker:
         return member(track2d, self.prev_2d) | ~member(track2d, self.prev_seen)
 
     def step(self, cur: WindowTracklets3D, track2d: np.ndarray, solo: np.ndarray,
-             floor: np.ndarray | None = None) -> WindowTracklets3D:
+             floor: np.ndarray | None = None, own: np.ndarray | None = None) -> WindowTracklets3D:
         """Link one window's 3D tracklets to the tracks.
 
         cur: (M, W) the window's tracklets (``members`` index ``track2d``); track2d: (K,) the 2D
         track ids of the window's segments; solo: (M,) bool, one-view plane tracklets (they may
-        only continue a track); floor: (M,) bool, floor tracklets (``floor_by_2d``). Returns the
-        linked tracklets, ``track_id`` set (new ids for the unlinked), unlinked one-view
+        only continue a track); floor: (M,) bool, floor tracklets (``floor_by_2d``); own: (M,)
+        bool, one-view tracklets that may only continue the track their 2D track belonged to,
+        within the gate (the recipe's ``rejoin``), after the tracklets of several views. Returns
+        the linked tracklets, ``track_id`` set (new ids for the unlinked), unlinked one-view
         tracklets removed.
         """
-        self._track2d, self._floor = track2d, floor
+        self._track2d, self._floor, self._own = track2d, floor, own
         ids = self._link(cur, solo)
         if self.keep_older and self.prev is not None and len(self.prev) and self.prev.start == cur.start - self.window_step:
             self._keep_older(ids)
@@ -279,8 +281,11 @@ class WindowLinker:
         if self.floor_by_2d and chained and self._floor is not None and self._floor.any() and len(self.prev_2d):
             self._link_by_2d(cur, ids)
         # a cascade here too: candidates of several views link first, one-view ones only to what is left
+        own = np.zeros(len(cur), bool) if self._own is None else self._own
         for k, group in enumerate((~solo, solo) if solo.any() else (None,)):
-            cols = np.flatnonzero(ids < 0) if group is None else np.flatnonzero(group & (ids < 0))
+            if k == 1 and own.any() and chained:  # one view of a dropped cluster: its own track or none
+                self._link_own(cur, np.flatnonzero(own & (ids < 0)), ids)
+            cols = np.flatnonzero((ids < 0) & ~own) if group is None else np.flatnonzero(group & (ids < 0) & ~own)
             # the first pass may link any previous tracklet, the second only those still free
             # (floor_by_2d: only once a link by 2D tracks took one)
             free = (np.flatnonzero(~member(prev.track_id, ids)) if k or (self.floor_by_2d and (ids >= 0).any())
@@ -294,6 +299,26 @@ class WindowLinker:
             if self.lost and len(cols) and self.relink_frames > 0:  # beyond the paper: bridge short gaps
                 self._relink(cur, cols, ids)
         return ids
+
+    def _link_own(self, cur: WindowTracklets3D, rows: np.ndarray, ids: np.ndarray) -> None:
+        """The ``own`` tracklets ``rows`` continue the previous window's track their 2D tracks
+        belonged to, where it is within ``link_3d`` (Eq. 10) and still free (nearest first;
+        written into ``ids``). A handful per window: a plain loop."""
+        prev, taken, found = self.prev, set(ids[ids >= 0].tolist()), []
+        for r in rows.tolist():
+            m = cur.members[r]
+            owner = np.unique(self.prev_owner[member(self.prev_2d, self._track2d[m[m >= 0]])])
+            if len(owner) != 1 or int(owner[0]) in taken:
+                continue
+            i = np.flatnonzero(prev.track_id == owner[0])
+            d = link_distances(prev.xyz[i], prev.valid[i], cur.xyz[r:r + 1], cur.valid[r:r + 1], self.window_step)[0, 0]
+            if d <= self.link_3d:  # (NaN: no shared frame, no link)
+                found.append((float(d), r, int(owner[0])))
+        for _, r, owner in sorted(found):
+            if owner not in taken:
+                ids[r] = owner
+                taken.add(owner)
+                self.counts["links_own"] += 1
 
     def _keep_older(self, ids: np.ndarray) -> None:
         """``keep_older``: a track born in the previous window beside an older track (their tracklets

@@ -22,17 +22,15 @@ people's segments in a dropped cluster are a pair by Eq. 2 too and meet on the p
 (a phantom, e.g. beside a vault's landing, that would take over the target's track). Segments
 without a pair stay dropped, as before.
 
-The recipe's ``alone`` (:func:`alone`): a dropped cluster's segment whose 2D track belonged to a
-3D track of the previous window -- a gymnast whom one view follows while a wrong third view
-joined her cluster -- goes to the plane alone (a group of its own: it fuses with no one) and only
-continues a track, as the tracker's single tracklets do (a new 2D track in a wrong cluster is as
-often the wrong view: letting those go on too cost the target at n_cam = 4 on the rings); a
-pair's segment whose partner did not fuse with it continues its track as any single tracklet
-may (:func:`gymnast_only`'s ``alone``), and a
-regrouped pair continues the track its 2D tracks belonged to wherever the wrong cluster had put
-that track (the tracker links it by its 2D tracks, as a floor tracklet). Without it, a gymnast
-seen by one view lost her track for as long as a wrong cluster took her segment (simulated
-beam, seed 2 r1, n_cam = 2: five seconds).
+The recipe's ``rejoin``: what the pair continues is the track its 2D tracks belonged to. A pair
+links by its 2D tracks (as a floor tracklet, :meth:`.linking.WindowLinker.step`), wherever the
+wrong cluster had put that track: Eq. 10's gate refused it when the wrong triangulation stood
+1.5 m off the beam (simulated beam, seed 0 r3, n_cam = 2: three seconds without a track). A
+pair's view whose partner did not fuse with it passes alone when it may continue its track alone
+(:func:`continuing`) and looks like a gymnast on the apparatus (the indicator above, on one
+view), and then continues only its own track within the gate. (Sending every segment of a
+dropped cluster on alone kept more gymnasts but put coaches' single views on the plane: all-people
+MOTA fell 0.84 -> 0.74 on the rings at n_cam = 3.)
 
 Effect (simulated, n_cam = 2): the beam's target FR 11.9 -> 1.3 % (the oracle's 1.3 %) on a
 seed-4 check suite, 11.9 -> 1.1 % on a seed-3 beam and pommel suite; the other apparatus' target
@@ -49,7 +47,7 @@ import numpy as np
 from ._kernels import regroup as kernels
 from .types import WindowTracklets3D
 
-__all__ = ["regroup", "regroup_pairs", "gymnast_only", "pairs_only", "alone", "continuing"]
+__all__ = ["regroup", "regroup_pairs", "gymnast_only", "pairs_only", "continuing"]
 
 
 def regroup_pairs(tested: np.ndarray, kept: np.ndarray, D2: np.ndarray, camera: np.ndarray, opposite: np.ndarray,
@@ -78,8 +76,9 @@ def gymnast_only(pl: WindowTracklets3D, regrouped: np.ndarray, performance_space
     indicator (inside ``performance_space``, body top above ``target.h_top`` and bottom above
     ``target.h_bot``). Two people's segments of a dropped cluster are a pair by Eq. 2 too and
     meet on the plane by chance: a phantom standing in the air over the floor. ``alone`` (M,)
-    bool: rows kept all the same (the recipe's ``alone``: one view continuing its track,
-    :func:`continuing`). Counted in ``regrouped_left_out``; None when nothing is left."""
+    bool: rows that may pass with one view, when they pass the indicator (the recipe's
+    ``rejoin``: one view continuing its track, :func:`continuing`; a coach's one view stays out).
+    Counted in ``regrouped_left_out``; None when nothing is left."""
     m = pl.members
     mine = np.isin(m, regrouped).any(axis=1)
     if not mine.any():
@@ -90,9 +89,9 @@ def gymnast_only(pl: WindowTracklets3D, regrouped: np.ndarray, performance_space
     top = np.where(v, pl.top_z, 0.0).sum(axis=1) / n
     bottom = np.where(v, pl.bottom_z, 0.0).sum(axis=1) / n
     lo, hi = performance_space[:3], performance_space[3:]
-    gymnast = (np.all((mean >= lo) & (mean <= hi), axis=1) & (top > target.h_top) & (bottom > target.h_bot)
-               & ((m >= 0).sum(axis=1) >= 2))
-    out = mine & ~gymnast if alone is None else mine & ~gymnast & ~alone
+    views = (m >= 0).sum(axis=1) >= 2 if alone is None else ((m >= 0).sum(axis=1) >= 2) | alone
+    gymnast = np.all((mean >= lo) & (mean <= hi), axis=1) & (top > target.h_top) & (bottom > target.h_bot) & views
+    out = mine & ~gymnast
     if not out.any():
         return pl
     counts["regrouped_left_out"] += int(out.sum())
@@ -136,30 +135,10 @@ def regroup(tested: np.ndarray, kept: np.ndarray, D2: np.ndarray, camera: np.nda
     return seg, groups, to_plane, floor_only, fresh
 
 
-def alone(tested: np.ndarray, kept: np.ndarray, may: np.ndarray, regrouped: np.ndarray, groups: np.ndarray | None,
-          to_plane: np.ndarray, floor_only: np.ndarray, counts: dict):
-    """The recipe's ``alone``: the segments of the clusters Eq. 4 and the ghost test dropped
-    (``tested`` (M, C) members before the tests, ``kept`` (M', C) after them), neither regrouped
-    nor left to the floor, that may continue a track from their view alone (``may`` (K,) bool per
-    segment; the tracker's: its 2D track belonged to a 3D tracklet of the previous window): each
-    goes to the plane with a group label
-    of its own (it fuses with no segment on the plane) and joins the regrouped ones (so that on the
-    plane it only continues a track). The floor takes it as any segment: a person on the floor seen
-    by two views is one, and one view there only continues a track anyway. Returns ``regrouped``,
-    ``groups`` and ``to_plane`` (sorted) with them added; counted in ``segments_alone``."""
-    dropped = np.setdiff1d(tested[tested >= 0], kept[kept >= 0])
-    seg = dropped[~np.isin(dropped, regrouped) & ~np.isin(dropped, floor_only) & may[dropped]]
-    if not len(seg):
-        return regrouped, groups, to_plane
-    g = np.zeros(len(may), np.int64) if groups is None else groups.copy()
-    g[seg] = g.max() + 1 + np.arange(len(seg))
-    counts["segments_alone"] += len(seg)
-    return np.union1d(regrouped, seg), g, np.union1d(to_plane, seg)
-
-
 def continuing(pl: WindowTracklets3D, may: np.ndarray) -> np.ndarray:
     """(M,) bool: the plane tracklets of one view whose segment may continue a track from its view
-    alone (``may`` (K,) bool per segment, indexed by ``pl.members``; see :func:`alone`)."""
+    alone (``may`` (K,) bool per segment, indexed by ``pl.members``: the tracker's
+    :meth:`.linking.WindowLinker.may_continue_alone`)."""
     m = pl.members
     one = (m >= 0).sum(axis=1) == 1
     return one & may[m.max(axis=1)]
