@@ -10,8 +10,8 @@ with Eq. 3. ``method="dlt"`` is exactly that, per joint over the views that foun
    each joint's 2D noise level on this track (:func:`noise_level`), and the gate a view must
    meet is a multiple of it (it follows the pose model's noise, the joint's difficulty and the
    calibration's own error; a fixed share of the box rejected a third of the good views);
-2. views whose torso shows another body are set aside (:mod:`.identity`; every track lifted); a per-frame consensus
-   (:mod:`.consensus`) drops views whose reprojection disagrees and reads a view with left and
+2. views whose torso shows another body are set aside (:mod:`.identity`; every track lifted); a
+   per-frame consensus (:mod:`.consensus`) drops views whose reprojection disagrees and reads a view with left and
    right exchanged -- whole body or legs only -- where that fits clearly better; where no two
    views agree, every view is kept (flagged, low score): robust never estimates fewer joints
    than ``dlt`` because the consensus failed;

@@ -64,7 +64,7 @@ def triangulation_stage(t, segs: WindowTracklets, labels: np.ndarray | None, D2:
                                                None if t._space_mean is None else (t.space, p.max_speed))
     else:
         tri = drop_outliers(t, tri)
-    if tested is not None and t.method.regroup:  # a dropped cluster's opposite pairs on to the plane (.regroup)
+    if tested is not None:  # a dropped cluster's opposite pairs on to the plane (.regroup)
         t._regrouped, t._groups, to_plane, t._floor_only, t._fresh = regroup(
             tested, tri.members, D2, segs.camera, t.opposite, p.cluster_2d, to_plane, t._floor_only, t.counts)
     if t.refiner is not None:  # the plane's points: what passed the tests, and the opposite pairs

@@ -46,8 +46,8 @@ def predecessor(index: np.ndarray, track_id: np.ndarray, xyz: np.ndarray, tid: i
     mine = np.flatnonzero(track_id == tid)
     if not len(mine):
         return -1, -1
-    s = int(index[mine].min())
-    first = xyz[mine[np.argmin(index[mine])]]
+    born = mine[np.argmin(index[mine])]
+    s, first = int(index[born]), xyz[born]
     later = np.unique(track_id[index >= s])
     near = (index < s) & (index >= s - gap) & ~np.isin(track_id, later)
     best, best_d, best_e = -1, GATE, -1

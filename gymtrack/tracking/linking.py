@@ -240,7 +240,9 @@ class WindowLinker:
 
         cur: (M, W) the window's tracklets (``members`` index ``track2d``); track2d: (K,) the 2D
         track ids of the window's segments; solo: (M,) bool, one-view plane tracklets (they may
-        only continue a track); floor: (M,) bool, floor tracklets (``floor_by_2d``); own: (M,)
+        only continue a track); floor: (M,) bool, tracklets that continue the track their 2D
+        tracks belonged to whatever their 3D distance (``floor_by_2d``: the floor tracklets, and
+        the recipe's ``rejoin``: the regrouped pairs); own: (M,)
         bool, one-view tracklets that may only continue the track their 2D track belonged to,
         within the gate (the recipe's ``rejoin``), after the tracklets of several views. Returns
         the linked tracklets, ``track_id`` set (new ids for the unlinked), unlinked one-view

@@ -89,7 +89,9 @@ def gymnast_only(pl: WindowTracklets3D, regrouped: np.ndarray, performance_space
     top = np.where(v, pl.top_z, 0.0).sum(axis=1) / n
     bottom = np.where(v, pl.bottom_z, 0.0).sum(axis=1) / n
     lo, hi = performance_space[:3], performance_space[3:]
-    views = (m >= 0).sum(axis=1) >= 2 if alone is None else ((m >= 0).sum(axis=1) >= 2) | alone
+    views = (m >= 0).sum(axis=1) >= 2
+    if alone is not None:
+        views |= alone
     gymnast = np.all((mean >= lo) & (mean <= hi), axis=1) & (top > target.h_top) & (bottom > target.h_bot) & views
     out = mine & ~gymnast
     if not out.any():

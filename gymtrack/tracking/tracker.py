@@ -330,17 +330,17 @@ class Tracker:
         # (one part is used as it is: the stages never write into a window's tracklets)
         cur = (parts[0] if len(parts) == 1 else WindowTracklets3D.concat(parts)) if parts else \
             WindowTracklets3D.empty(start, self.width, self.n_cameras)
-        solo, floor_rows = continuation_only(len(cur), tri, floor, plane, self.counts)
+        solo, by_2d = continuation_only(len(cur), tri, floor, plane, self.counts)  # (floor rows: by their 2D tracks)
         own = None
         if plane is not None and len(self._regrouped):  # a regrouped pair only continues a track (.regroup)
             mine = np.isin(plane.members, self._regrouped).any(axis=1)
             solo[len(cur) - len(plane):] |= mine
             if self.method.rejoin:  # its own track: a pair wherever the wrong cluster had put it, one view near it
                 views = (plane.members >= 0).sum(axis=1)
-                floor_rows[len(cur) - len(plane):] |= mine & (views >= 2)
+                by_2d[len(cur) - len(plane):] |= mine & (views >= 2)
                 own = np.zeros(len(cur), bool)
                 own[len(cur) - len(plane):] = mine & (views == 1)
-        cur = self.linker.step(cur, segs.track2d, solo, floor_rows, own)
+        cur = self.linker.step(cur, segs.track2d, solo, by_2d, own)
         self.records.add(cur, segs, self._window_index)
         self._window_index += 1
         self._next_start = start + self.step
