@@ -11,9 +11,15 @@ Exact: that offset for that camera and 0 for the others; clean: 0 for all. Silen
 reported with confidence (not undecided).
 ``benchmarks/bench_faults.py --part sync-only`` runs the full estimate on one seeded case each.
 
+``--oracle-identity``: a ceiling, not a method. Each box is compared only with the boxes of the
+same simulated person in the other view (the detector's ground-truth person), so no other
+person's box near the epipolar line stands in at a wrong shift. What it gains over the plain run
+is what telling people apart across views could give (held-out seeds 3-4, 20 s: n_cam 3 86.0 ->
+94.8 % exact).
+
 Usage::
 
-    python benchmarks/bench_sync.py [--seconds 20] [--seeds 0,1,2] [--apparatus all] [--json OUT]
+    python benchmarks/bench_sync.py [--seconds 20] [--seeds 0,1,2] [--apparatus all] [--json OUT] [--oracle-identity]
 """
 
 from __future__ import annotations
@@ -51,6 +57,23 @@ def cases(cost: np.ndarray, n_frames: int) -> list[dict]:
     return out
 
 
+def oracle_identity_costs(det, rig, person: np.ndarray, shifts: np.ndarray) -> tuple[np.ndarray, int]:
+    """:func:`pair_costs` with each box matched only within its true person (``person`` (N,),
+    -1 for false positives, left out): the pairs' costs pooled over people, weighted by the
+    moving boxes each weighed."""
+    C = len(rig)
+    num, den, frames = np.zeros((C, C, len(shifts))), np.zeros((C, C, len(shifts))), set()
+    for p in np.unique(person[person >= 0]):
+        mine = np.flatnonzero(person == p)
+        cost, count, _ = pair_costs(det.select(mine), rig, shifts)
+        ok = np.isfinite(cost)
+        num += np.where(ok, cost * count, 0.0)
+        den += np.where(ok, count, 0.0)
+        frames.update(det.frame[mine].tolist())
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(den > 0, num / den, np.nan), len(frames)
+
+
 def share(rows: list[dict]) -> str:
     return f"{sum(r['exact'] for r in rows)}/{len(rows)} ({100 * np.mean([r['exact'] for r in rows]):.1f} %)" if rows else "-"
 
@@ -61,6 +84,7 @@ def main() -> None:
     ap.add_argument("--seeds", default="0,1,2")
     ap.add_argument("--apparatus", default="all")
     ap.add_argument("--json", default=None)
+    ap.add_argument("--oracle-identity", action="store_true", help="the ceiling: boxes matched within their true person")
     a = ap.parse_args()
     apps = APPARATUS_NAMES if a.apparatus == "all" else a.apparatus.split(",")
     rows, t0 = [], time.time()
@@ -68,10 +92,16 @@ def main() -> None:
         for seed in (int(s) for s in a.seeds.split(",")):
             for n, sim in simulate_n_cams(app, seed=seed, seconds=a.seconds, n_cams=(2, 3, 4)).items():
                 rig, det = sim.rig, sim.detections
+                person = sim.det_person
                 if n == 2:
                     rig = rig.subset(rig.names[:2])
+                    person = person[det.camera < 2]
                     det = det.select(np.flatnonzero(det.camera < 2))
-                cost, _, n_frames = pair_costs(det, rig, np.arange(-2 * SEARCH - MOST, 2 * SEARCH + MOST + 1))
+                shifts = np.arange(-2 * SEARCH - MOST, 2 * SEARCH + MOST + 1)
+                if a.oracle_identity:
+                    cost, n_frames = oracle_identity_costs(det, rig, person, shifts)
+                else:
+                    cost, _, n_frames = pair_costs(det, rig, shifts)
                 got = [{"app": app, "seed": seed, "n_cam": n, **r} for r in cases(cost, n_frames)]
                 rows += got
                 print(app, seed, n, "exact", share([r for r in got if r["offset"]]), "clean", got[0]["found"], flush=True)

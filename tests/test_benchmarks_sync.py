@@ -60,3 +60,28 @@ def test_a_wrong_offset_of_an_undecided_camera_is_not_silent():
     assert len(cam2) == 2 * M and all(r["found"][2] == 0 and not r["exact"] for r in cam2)
     assert all(r["flagged"] and not r["silent"] for r in cam2)
     assert all(r["exact"] and not r["silent"] for r in rows if r["cam"] == 1)
+
+
+def test_oracle_identity_costs_pool_the_people_and_leave_false_positives_out():
+    """One person alone: the pooled cost is that person's own (pair_costs on its boxes). Two
+    people: each one's curve counts by the moving boxes it weighed, and boxes of no person (-1)
+    change nothing."""
+    from gymtrack.simulate.routine import simulate_routine
+    from gymtrack.tracking.sync import pair_costs
+
+    sim = simulate_routine("vault", n_cam=3, seed=0, seconds=8)
+    det, person = sim.detections, sim.det_person
+    shifts = np.arange(-4, 5)
+    p0, p1 = np.unique(person[person >= 0])[:2]
+    one = np.flatnonzero(person == p0)
+    alone, frames = bench_sync.oracle_identity_costs(det.select(one), sim.rig, person[one], shifts)
+    own, _, _ = pair_costs(det.select(one), sim.rig, shifts)
+    np.testing.assert_allclose(alone, own, equal_nan=True)
+    assert frames == len(np.unique(det.frame[one]))
+    two = np.flatnonzero(np.isin(person, [p0, p1]) | (person < 0))
+    pooled, _ = bench_sync.oracle_identity_costs(det.select(two), sim.rig, person[two], shifts)
+    (c0, n0, _), (c1, n1, _) = (pair_costs(det.select(np.flatnonzero(person == p)), sim.rig, shifts) for p in (p0, p1))
+    want = (np.nan_to_num(c0) * n0 + np.nan_to_num(c1) * n1) / (n0 + n1)
+    ok = (n0 + n1) > 0
+    np.testing.assert_allclose(pooled[ok], want[ok])
+    assert (person < 0).any()  # the routine has false positives, left out above

@@ -146,7 +146,7 @@ class Tracker:
                     if m.image_motion and association == "iou" and needs_motion(scene.fps)
                     else IoUTracker(p.iou_threshold, p.max_age))
         self.linker = WindowLinker(p.step, p.link_3d, p.relink_frames, p.max_speed, self.counts,
-                                   floor_by_2d=m.floor, keep_older=m.keep_older)
+                                   floor_by_2d=m.floor or m.rejoin, keep_older=m.keep_older)  # rows linked by 2D tracks
         self.fusion = (PlaneRayFusion(rig, scene, self.plane_arrays, self.opposite, self.counts)
                        if m.fusion and p.fuse_plane else None)
         # frames a segment's end box is held (windows): max_age, or hold_seconds (capped at max_age)
