@@ -97,6 +97,10 @@ class Method:
         continues: one that ended at most 0.5 s before it was born, where its horizontal motion
         points (:mod:`gymtrack.tracking.chain`): the vault's run-up, broken at the take-off, is
         the gymnast's too once she is identified in the air (the tracks unchanged).
+    lone: a segment of a dropped cluster whose 2D track belonged to the target's track in the
+        previous window goes on to the plane alone and continues its own track, as ``rejoin``'s
+        lone view does (:func:`gymtrack.tracking.regroup.target_lone`): the gymnast's one view
+        is kept where a coach's is not.
     name: what results and reports call it.
     """
 
@@ -120,6 +124,7 @@ class Method:
     reidentify: bool = False
     reach: bool = False
     chain: bool = False
+    lone: bool = False
     name: str = "custom"
 
     def __post_init__(self) -> None:
@@ -152,7 +157,7 @@ RECIPES: dict[str, Method] = {
     "cascade+": Method(image_motion=True, outliers_at_mean=True, floor=True, ghost_test=True, fusion=True,
                        keep_older=True, exclusion=True, best_estimates=True, solo_inside=True,
                        refine_plane=True, hold_seconds=0.2, handover=True, ballistic=True, regroup=True,
-                       rejoin=True, reidentify=True, reach=True, chain=True, name="cascade+"),
+                       rejoin=True, reidentify=True, reach=True, chain=True, lone=True, name="cascade+"),
 }
 MODES: tuple[str, ...] = tuple(RECIPES)
 #: the recipe a Tracker, the offline runners, batch and the command line use unless told

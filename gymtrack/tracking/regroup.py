@@ -30,7 +30,9 @@ pair's view whose partner did not fuse with it passes alone when it may continue
 (:func:`continuing`) and looks like a gymnast on the apparatus (the indicator above, on one
 view), and then continues only its own track within the gate. (Sending every segment of a
 dropped cluster on alone kept more gymnasts but put coaches' single views on the plane: all-people
-MOTA fell 0.84 -> 0.74 on the rings at n_cam = 3.)
+MOTA fell 0.84 -> 0.74 on the rings at n_cam = 3.) The recipe's ``lone`` sends on alone only the
+dropped segments whose 2D track belonged to the target's track (:func:`target_lone`): a coach's
+view never did. They pass the same gymnast test and continue only their own track.
 
 Effect (simulated, n_cam = 2): the beam's target FR 11.9 -> 1.3 % (the oracle's 1.3 %) on a
 seed-4 check suite, 11.9 -> 1.1 % on a seed-3 beam and pommel suite; the other apparatus' target
@@ -47,7 +49,7 @@ import numpy as np
 from ._kernels import regroup as kernels
 from .types import WindowTracklets3D
 
-__all__ = ["regroup", "regroup_pairs", "gymnast_only", "pairs_only", "continuing"]
+__all__ = ["regroup", "regroup_pairs", "gymnast_only", "pairs_only", "continuing", "target_lone"]
 
 
 def regroup_pairs(tested: np.ndarray, kept: np.ndarray, D2: np.ndarray, camera: np.ndarray, opposite: np.ndarray,
@@ -144,3 +146,16 @@ def continuing(pl: WindowTracklets3D, may: np.ndarray) -> np.ndarray:
     m = pl.members
     one = (m >= 0).sum(axis=1) == 1
     return one & may[m.max(axis=1)]
+
+
+def target_lone(tested: np.ndarray, kept: np.ndarray, regrouped: np.ndarray, track2d: np.ndarray, prev_2d: np.ndarray,
+                prev_owner: np.ndarray, target: int) -> np.ndarray:
+    """(n,) sorted: the segments of dropped clusters (in ``tested``, not in ``kept``, not
+    ``regrouped``) whose 2D track belonged to the ``target``'s 3D track in the previous window
+    (``prev_2d`` and ``prev_owner``, the linker's); empty without a target. A coach's view never
+    belonged to the gymnast's track: sending every dropped segment on alone put coaches' single
+    views on the plane."""
+    if target < 0 or not len(prev_2d):
+        return np.zeros(0, np.int64)
+    dropped = np.setdiff1d(np.setdiff1d(tested[tested >= 0], kept[kept >= 0]), regrouped)
+    return dropped[np.isin(track2d[dropped], prev_2d[prev_owner == target])]

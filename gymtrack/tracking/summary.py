@@ -29,7 +29,7 @@ INGREDIENT_COUNTS: dict[str, tuple[str, ...]] = {
     "floor": ("floor_single_view",), "ghost_test": ("floor_ghosts_confirmed",), "keep_older": ("links_older",),
     "handover": ("target_handovers",), "ballistic": ("ballistic_handovers", "ballistic_points"),
     "regroup": ("segments_regrouped", "regrouped_left_out"), "rejoin": ("links_own",), "reidentify": ("target_reidentifications",),
-    "reach": ("target_points_out_of_reach",), "chain": ("target_frames_chained",),
+    "reach": ("target_points_out_of_reach",), "chain": ("target_frames_chained",), "lone": ("segments_lone",),
 }
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
 

@@ -99,6 +99,11 @@ class TargetStage:
     def identifications(self) -> int:
         return self.selector.identifications
 
+    def live_track(self) -> int:
+        """The 3D track the target follows now (its handed-over track); -1: no target."""
+        t = self.selector.target
+        return t if t < 0 or self.handover is None else self.handover.live.get(t, t)
+
     def update(self, a: int, b: int, tracks: Tracks3D, boxes: Detections,
                ended: dict[int, int]) -> tuple[Target, Detections]:
         """Final frames ``a..b``: their track points and boxes (``track_id`` = 3D track), and the
