@@ -23,7 +23,7 @@ import numpy as np
 from .floor import drop_floor_ghosts, floor_split
 from .plane_fallback import plane_split
 from .reconstruct import cluster_members, fallback_segments, opposite_clusters, triangulate_clusters
-from .regroup import continuing, gymnast_only, pairs_only, regroup, target_lone
+from .regroup import continuing, gymnast_only, pairs_only, regroup, send_alone, target_lone
 from .types import WindowTracklets, WindowTracklets3D
 
 __all__ = ["triangulation_stage", "plane_stage", "drop_outliers"]
@@ -71,13 +71,8 @@ def triangulation_stage(t, segs: WindowTracklets, labels: np.ndarray | None, D2:
             lone = target_lone(tested, tri.members, t._regrouped, segs.track2d, t.linker.prev_2d, t.linker.prev_owner,
                                t.target.live_track())
             if len(lone):
-                t.counts["segments_lone"] += len(lone)
-                groups = np.zeros(len(segs), np.int64) if t._groups is None else t._groups.copy()
-                groups[lone] = groups.max() + 1 + np.arange(len(lone))
-                t._groups, t._regrouped = groups, np.union1d(t._regrouped, lone)
-                t._fresh = np.union1d(t._fresh, lone)
-                to_plane = np.union1d(to_plane, lone)
-                t._floor_only = np.setdiff1d(t._floor_only, lone)
+                t._regrouped, t._groups, to_plane, t._floor_only, t._fresh = send_alone(
+                    lone, len(segs), t._regrouped, t._groups, to_plane, t._floor_only, t._fresh, t.counts)
     if t.refiner is not None:  # the plane's points: what passed the tests, and the opposite pairs
         t.refiner.observe(segs, tri, members[fallback & ((members >= 0).sum(axis=1) >= 2)])
     t.counts["clusters_triangulated"] += len(tri)

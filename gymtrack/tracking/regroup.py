@@ -49,7 +49,7 @@ import numpy as np
 from ._kernels import regroup as kernels
 from .types import WindowTracklets3D
 
-__all__ = ["regroup", "regroup_pairs", "gymnast_only", "pairs_only", "continuing", "target_lone"]
+__all__ = ["regroup", "regroup_pairs", "gymnast_only", "pairs_only", "continuing", "target_lone", "send_alone"]
 
 
 def regroup_pairs(tested: np.ndarray, kept: np.ndarray, D2: np.ndarray, camera: np.ndarray, opposite: np.ndarray,
@@ -159,3 +159,16 @@ def target_lone(tested: np.ndarray, kept: np.ndarray, regrouped: np.ndarray, tra
         return np.zeros(0, np.int64)
     dropped = np.setdiff1d(np.setdiff1d(tested[tested >= 0], kept[kept >= 0]), regrouped)
     return dropped[np.isin(track2d[dropped], prev_2d[prev_owner == target])]
+
+
+def send_alone(seg: np.ndarray, n_segments: int, regrouped: np.ndarray, groups: np.ndarray | None, to_plane: np.ndarray,
+               floor_only: np.ndarray, fresh: np.ndarray, counts: dict):
+    """The segments ``seg`` (:func:`target_lone`) join the regrouped ones, each in a group of its
+    own (it fuses with no segment on the plane), on to the plane and not to the floor alone (a
+    fresh segment: :func:`pairs_only`). Returns ``regrouped``, ``groups`` ((n_segments,) labels),
+    ``to_plane``, ``floor_only`` and ``fresh``, as :func:`regroup` does; counted in ``segments_lone``."""
+    counts["segments_lone"] += len(seg)
+    g = np.zeros(n_segments, np.int64) if groups is None else groups.copy()
+    g[seg] = g.max() + 1 + np.arange(len(seg))
+    return (np.union1d(regrouped, seg), g, np.union1d(to_plane, seg), np.setdiff1d(floor_only, seg),
+            np.union1d(fresh, seg))
