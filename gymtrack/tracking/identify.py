@@ -18,7 +18,9 @@
   point seen in more views than the target's at that frame (:func:`point_support`; a frame
   without a target point counts as none). A phantom of association (a plane candidate of one
   view) identified while the gymnast stood on the floor is then not held while the gymnast's
-  own track qualifies. It counts as a switch. Whether a point was triangulated or placed on the
+  own track qualifies. It counts as a switch, and the back-fill (below) hands the new target the
+  frames just before where it was seen in more views: the run of them that ends at the
+  take-over, the frames its challenge counted. Whether a point was triangulated or placed on the
   plane does not count: two views' boxes triangulate whenever their rays meet short of
   opposite, a wrong pair as readily as the right one, so a phantom of a wrong pair would take
   the target from a gymnast seen by the same two views as an opposite pair.
@@ -35,6 +37,8 @@ The stage that wires these with smoothing and the Eq. 14 boxes: :class:`~.target
 """
 
 from __future__ import annotations
+
+from typing import Sequence
 
 import numpy as np
 
@@ -79,6 +83,7 @@ class TargetSelector:
         self._ind = np.zeros(0, bool)
         self._inperf = np.zeros(0, bool)
         self._support = np.zeros(0, np.int64)  # kept only under reidentify: the paper never reads it
+        self.takeovers: list[int] = []  # frames where a challenger took over (reidentify), for the back-fill
 
     def __len__(self) -> int:
         return len(self._frame)
@@ -202,6 +207,7 @@ class TargetSelector:
         self.identifications += 1
         self.switches += 1
         self.counts["target_reidentifications"] = self.counts.get("target_reidentifications", 0) + 1
+        self.takeovers.append(f + k)
         out[f - a: f + k - a] = t
         out[f + k - a] = self.target
         return f + k
@@ -244,7 +250,8 @@ def point_support(wh: np.ndarray) -> np.ndarray:
 
 
 def backfill(decision: np.ndarray, index: np.ndarray, track_id: np.ndarray, frames: int, since: int = 0,
-             before: int = -1, chain: tuple[np.ndarray, int, dict] | None = None) -> np.ndarray:
+             before: int = -1, chain: tuple[np.ndarray, int, dict] | None = None,
+             takeover: tuple[np.ndarray, np.ndarray, dict] | None = None) -> np.ndarray:
     """Hand newly identified tracks the undecided frames Eq. 13 looked back on (in place).
 
     decision: (F,) the target's track id per frame (-1: none); index: (n,) frame index (into
@@ -258,6 +265,11 @@ def backfill(decision: np.ndarray, index: np.ndarray, track_id: np.ndarray, fram
     it go, without points: those frames are open to its successor). ``chain``: the recipe's
     ``chain`` (:mod:`.chain`), (xyz (n, 3) of the points, the break's frames at most, counts):
     the look-back goes on to the tracks ``T`` continues (counted in ``target_frames_chained``).
+    ``takeover``: the recipe's ``reidentify``, (indices where a challenger took the target over,
+    support (n,) of each point (:func:`point_support`), counts): the frames just before a
+    take-over where the new track was seen in more views than the old target become the new
+    track's -- the run of them that ends at the take-over, the frames its challenge counted
+    (counted in ``target_frames_taken_over``).
     Returns ``decision``.
     """
     if frames <= 0 or len(decision) <= since:
@@ -268,6 +280,8 @@ def backfill(decision: np.ndarray, index: np.ndarray, track_id: np.ndarray, fram
     prev[0] = decision[since - 1] if since > 0 else before
     prev[1:] = decision[since:-1]
     starts = since + np.flatnonzero((decision[since:] >= 0) & (decision[since:] != prev))
+    if takeover is not None:
+        _take_over(decision, index, track_id, frames, before, *takeover)
     for k in starts.tolist():  # one per identification: rare
         lo = max(0, k - frames)
         decided = np.flatnonzero(pointed[lo:k])
@@ -284,6 +298,26 @@ def backfill(decision: np.ndarray, index: np.ndarray, track_id: np.ndarray, fram
     return decision
 
 
+def _take_over(decision: np.ndarray, index: np.ndarray, track_id: np.ndarray, frames: int, before: int,
+               at: np.ndarray, support: np.ndarray, counts: dict) -> None:
+    """The take-overs' look-back of :func:`backfill` (in place)."""
+    for k in np.asarray(at, np.int64).tolist():  # one per take-over: rare
+        old = int(decision[k - 1]) if k > 0 else before
+        new = int(decision[k])
+        lo = max(0, k - frames)
+        if old < 0 or new < 0 or old == new or lo >= k:
+            continue
+        s_old, s_new = np.zeros(k - lo, np.int64), np.zeros(k - lo, np.int64)
+        for t, s in ((old, s_old), (new, s_new)):
+            m = (track_id == t) & (index >= lo) & (index < k)
+            np.maximum.at(s, index[m] - lo, support[m])
+        beaten = (decision[lo:k] == old) & (s_new > s_old)
+        held = np.flatnonzero(~beaten)
+        first = lo + (int(held[-1]) + 1 if len(held) else 0)
+        decision[first:k] = new
+        counts["target_frames_taken_over"] = counts.get("target_frames_taken_over", 0) + (k - first)
+
+
 class TargetBackfill:
     """The target decisions of the last ``frames`` final frames, held back for :func:`backfill`.
 
@@ -292,9 +326,10 @@ class TargetBackfill:
     the frames up to a given one. State: the points of at most ``frames`` + one call's frames.
     """
 
-    def __init__(self, frames: int, chain: tuple[int, dict] | None = None):
+    def __init__(self, frames: int, chain: tuple[int, dict] | None = None, takeover: dict | None = None):
         self.frames = int(frames)
         self.chain = chain  # the recipe's chain (.chain): (the break's frames at most, counts)
+        self.takeover = takeover  # the recipe's reidentify: its counts
         self._first: int | None = None  # first frame not yet released
         self._decision = np.zeros(0, np.int64)
         self._rows: TargetRows | None = None
@@ -303,9 +338,10 @@ class TargetBackfill:
     def __len__(self) -> int:
         return 0 if self._rows is None else len(self._rows)
 
-    def push(self, a: int, decision: np.ndarray, rows: TargetRows) -> None:
+    def push(self, a: int, decision: np.ndarray, rows: TargetRows, takeovers: Sequence[int] = ()) -> None:
         """Final frames ``a .. a + len(decision) - 1``: their decisions (track id or -1) and the
-        track points of those frames in frame order."""
+        track points of those frames in frame order; ``takeovers``: the frames among them where a
+        challenger took the target over (:attr:`TargetSelector.takeovers`)."""
         if self._first is None:
             self._first = a
         if a != self._first + len(self._decision):
@@ -314,7 +350,11 @@ class TargetBackfill:
         self._decision = np.concatenate([self._decision, np.asarray(decision, np.int64)])
         self._rows = rows if self._rows is None else TargetRows.concat([self._rows, rows])
         chain = None if self.chain is None else (self._rows.xyz, *self.chain)
-        backfill(self._decision, self._rows.frame - self._first, self._rows.track_id, self.frames, since, self._last, chain)
+        take = None
+        if self.takeover is not None and len(takeovers):
+            take = (np.asarray(takeovers, np.int64) - self._first, point_support(self._rows.wh), self.takeover)
+        backfill(self._decision, self._rows.frame - self._first, self._rows.track_id, self.frames, since, self._last, chain,
+                 take)
 
     def restart(self) -> None:
         """After every decision was released: the next :meth:`push` may start at any later frame."""

@@ -28,7 +28,7 @@ INGREDIENT_COUNTS: dict[str, tuple[str, ...]] = {
     "image_motion": VIEW_COUNTS, "exclusion": ("points_suppressed",),
     "floor": ("floor_single_view",), "ghost_test": ("floor_ghosts_confirmed",), "keep_older": ("links_older",),
     "handover": ("target_handovers",), "ballistic": ("ballistic_handovers", "ballistic_points"),
-    "regroup": ("segments_regrouped", "regrouped_left_out"), "rejoin": ("links_own",), "reidentify": ("target_reidentifications",),
+    "regroup": ("segments_regrouped", "regrouped_left_out"), "rejoin": ("links_own",), "reidentify": ("target_reidentifications", "target_frames_taken_over"),
     "reach": ("target_points_out_of_reach",), "chain": ("target_frames_chained",), "lone": ("segments_lone",),
 }
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")

@@ -80,7 +80,8 @@ class TargetStage:
         # the recipe's reach (.reach): None is Eq. 13's indicator alone
         self.reach = ReachLimit(scene_geometry(scene), self.h_bot, scene.fps) if reach else None
         # the recipe's chain (.chain): the look-back follows the track the identified one continues
-        self.backfill = TargetBackfill(p.backfill_frames, (int(round(GAP_SECONDS * scene.fps)), self.counts) if chain else None)
+        self.backfill = TargetBackfill(p.backfill_frames, (int(round(GAP_SECONDS * scene.fps)), self.counts) if chain else None,
+                                       self.counts if reidentify else None)
         self.smoother = TargetSmoother(p.max_gap)
         self.memory: dict = {}  # Eq. 14: the body box's last half-length
         self.frames = 0  # target frames emitted
@@ -146,7 +147,8 @@ class TargetStage:
             target = self.handover.actual(a, target, rows.frame, rows.track_id, sel)
         if self.flights is not None:  # frames still held without a point in flight (.ballistic)
             rows = self.flights.fill(a, target, rows)
-        self.backfill.push(a, target, rows)
+        self.backfill.push(a, target, rows, self.selector.takeovers)
+        self.selector.takeovers.clear()
         upto = b - self.backfill_frames
         emitted = [self.smoother.push(rows)] if (rows := self.backfill.pop(upto)) is not None else []
         emitted.append(self.smoother.advance(upto))
