@@ -93,15 +93,12 @@ class ReachLimit:
                 seed[run[i]] = held[2], held[3], held[4]
         first = np.zeros(run[-1] + 1, np.int64)
         first[run[begins]] = start[begins]
-        # per-run running extremes and level flag: offset each run above the ones before it
-        known = np.abs(np.r_[z[a], seed[:, :2].ravel()])
-        big = 2.0 * (np.max(known[np.isfinite(known)], initial=0.0) + 1.0)
         zin = np.where(a & np.isfinite(z), z, np.nan)
-        hi = np.maximum.accumulate(np.fmax(np.nan_to_num(zin, nan=-np.inf), seed[run, 1]) + run * big) - run * big
-        lo = -(np.maximum.accumulate(np.fmax(np.nan_to_num(-zin, nan=-np.inf), -seed[run, 0]) + run * big) - run * big)
+        hi = _running_max(np.fmax(zin, seed[run, 1]), run)  # each run's highest and lowest centre so far
+        lo = -_running_max(np.fmax(-zin, -seed[run, 0]), run)
         tau = (f - first[run]) / self.fps
         level = a & (hi - lo < G * tau ** 2 / 8 - LEVEL_MARGIN)
-        level = np.maximum.accumulate((level | (seed[run, 2] > 0)) + 2 * run) - 2 * run > 0  # stays level
+        level = _running_max((level | (seed[run, 2] > 0)).astype(np.float64), run) > 0  # once level, it stays
         ok = ~a | ((f - first[run] < self.max_frames) & ~level)
         last = np.r_[new_track[1:], True]  # each track's last row in this call
         for i in np.flatnonzero(last):
@@ -115,3 +112,14 @@ class ReachLimit:
         out = np.empty(n, bool)
         out[order] = ok
         return out
+
+
+def _running_max(x: np.ndarray, run: np.ndarray) -> np.ndarray:
+    """(n,) the maximum of ``x`` so far within each row's run (NaN: none; -inf before any value).
+    run: (n,) non-decreasing run index per row. One ``np.maximum.accumulate``: each run is lifted
+    above the ones before it by an offset larger than the values' spread."""
+    x = np.asarray(x, np.float64)
+    x = np.where(np.isnan(x), -np.inf, x)
+    finite = np.abs(x[np.isfinite(x)])
+    step = 2.0 * (np.max(finite, initial=0.0) + 1.0)
+    return np.maximum.accumulate(x + run * step) - run * step
