@@ -17,9 +17,9 @@ on the apex). A run whose centre has spanned less, by more than :data:`LEVEL_MAR
 flight: from that point on it counts no more. A phantom stays level (a plane point of a person
 walking), and is given up after about 0.45 s instead of a flight's length -- before Eq. 13 can
 identify it (more than Delta / 2 = 15 frames). The centre is that of the body's box, not the
-centre of mass, so the margin holds what a tuck or an opening moves it by: over the 90 raised-away
-runs of the simulated gymnasts (seeds 0-2, n_cam 4 truth, 0.4 to 0.93 s), every run's span
-exceeded the bound less 0.08 m.
+centre of mass, so the margin holds what a tuck or an opening moves it by: of the simulated
+gymnasts' 90 raised-away runs (seeds 0-2, n_cam 4 truth), the 31 long enough for the bound to
+judge (12 to 28 frames) each spanned more than the bound less 0.08 m over their first 12 to 24.
 
 Such a point is where no body can be: it counts neither for identifying a track nor for
 keeping a target in the performance space (Eq. 13's "leaves"), so a phantom identified in its
