@@ -77,8 +77,7 @@ def test_selector_and_back_fill_give_the_challenged_frames_to_the_new_target(tak
         rows = _rows(range(a, a + 5), spec)
         ind = np.ones(len(rows.frame), bool)
         decision = sel.select(a, a + 4, rows.frame, rows.track_id, ind, ind, {}, point_support(rows.wh))
-        fill.push(a, decision, rows, sel.takeovers)
-        sel.takeovers.clear()
+        fill.push(a, decision, rows, sel.pop_takeovers())
     got = fill.pop()
     target = np.full(40, -1)
     target[got.frame] = got.track_id

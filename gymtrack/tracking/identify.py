@@ -88,6 +88,11 @@ class TargetSelector:
     def __len__(self) -> int:
         return len(self._frame)
 
+    def pop_takeovers(self) -> list[int]:
+        """The frames where a challenger took over since the last call (for the back-fill)."""
+        out, self.takeovers = self.takeovers, []
+        return out
+
     def forget(self) -> None:
         """Drop the indicator rows (a pause longer than Delta: none of them can count again)."""
         self.target = -1
@@ -274,14 +279,14 @@ def backfill(decision: np.ndarray, index: np.ndarray, track_id: np.ndarray, fram
     """
     if frames <= 0 or len(decision) <= since:
         return decision
+    if takeover is not None:  # first, so that the identifications below see the frames it gave
+        _take_over(decision, index, track_id, frames, before, *takeover)
     pointed = np.zeros(len(decision), bool)  # frames whose target has a point there
     pointed[index[track_id == decision[index]]] = True
     prev = np.empty(len(decision) - since, np.int64)
     prev[0] = decision[since - 1] if since > 0 else before
     prev[1:] = decision[since:-1]
     starts = since + np.flatnonzero((decision[since:] >= 0) & (decision[since:] != prev))
-    if takeover is not None:
-        _take_over(decision, index, track_id, frames, before, *takeover)
     for k in starts.tolist():  # one per identification: rare
         lo = max(0, k - frames)
         decided = np.flatnonzero(pointed[lo:k])
@@ -341,7 +346,7 @@ class TargetBackfill:
     def push(self, a: int, decision: np.ndarray, rows: TargetRows, takeovers: Sequence[int] = ()) -> None:
         """Final frames ``a .. a + len(decision) - 1``: their decisions (track id or -1) and the
         track points of those frames in frame order; ``takeovers``: the frames among them where a
-        challenger took the target over (:attr:`TargetSelector.takeovers`)."""
+        challenger took the target over (:meth:`TargetSelector.pop_takeovers`)."""
         if self._first is None:
             self._first = a
         if a != self._first + len(self._decision):

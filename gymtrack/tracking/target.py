@@ -147,8 +147,7 @@ class TargetStage:
             target = self.handover.actual(a, target, rows.frame, rows.track_id, sel)
         if self.flights is not None:  # frames still held without a point in flight (.ballistic)
             rows = self.flights.fill(a, target, rows)
-        self.backfill.push(a, target, rows, self.selector.takeovers)
-        self.selector.takeovers.clear()
+        self.backfill.push(a, target, rows, self.selector.pop_takeovers())
         upto = b - self.backfill_frames
         emitted = [self.smoother.push(rows)] if (rows := self.backfill.pop(upto)) is not None else []
         emitted.append(self.smoother.advance(upto))
