@@ -21,11 +21,13 @@ from gymtrack.tracking.reconstruct import cluster_members, outliers, outliers_at
 from gymtrack.tracking.single_view import IoUTracker, assign, iou_matrix
 from gymtrack.tracking.types import WindowTracklets
 from gymtrack.tracking.windows import fill_missing
+from gymtrack.tracking.single_view_motion import MotionIoUTracker
 from reference.clustering import complete_linkage_numpy, complete_linkage_sequential, tracklet_distances_numpy
 from reference.linking import link_distances_numpy, merge_overlaps_numpy
 from reference.plane import candidate_distances, candidate_distances_numpy
 from reference.reconstruct import outliers_at_mean_numpy, outliers_numpy, triangulate_clusters_numpy
 from reference.single_view import IoUTrackerNumpy
+from reference.single_view_motion import MotionIoUTrackerNumpy
 from reference.windows import fill_missing as fill_missing_numpy
 
 
@@ -62,6 +64,34 @@ def test_iou_tracker_matches_full_assignment(seed):
             c = np.append(c, c[0])
         assert np.array_equal(fast.update(frame, c, box), ref.update(frame, c, box))
         assert np.array_equal(fast.track_id, ref.track_id) and np.array_equal(fast.last, ref.last)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_motion_tracker_matches_full_assignment(seed):
+    """A crowd at 2 fps in 4 views (people walking up to 0.6 body heights a frame, turning,
+    missed, near-duplicate boxes, a whole view empty for a frame): the kernel, which compares a
+    view's tracks with that view's boxes only and solves only the conflicts, gives the same ids,
+    state and link counts as one full-matrix assignment over all views per frame."""
+    rng = np.random.default_rng(seed)
+    fast, ref = MotionIoUTracker(2.0), MotionIoUTrackerNumpy(2.0)
+    P = 60
+    h = rng.uniform(60, 240, P)
+    pos = np.column_stack([rng.uniform(0, 1500, P), rng.uniform(200, 900, P)])
+    vel = rng.normal(0, 0.3, (P, 2)) * h[:, None]
+    cam = rng.integers(0, 4, P)
+    for frame in range(40):
+        vel += rng.normal(0, 0.1, (P, 2)) * h[:, None]
+        pos += vel
+        seen = (rng.random(P) < 0.85) & ((cam != 2) | (frame != 9))
+        box = np.column_stack([pos, 0.4 * h, h])[seen] * rng.normal(1, 0.02, (int(seen.sum()), 4))
+        c = cam[seen].astype(np.int64)
+        if frame % 7 == 3 and len(box):  # a near-duplicate detection: two boxes compete for a track
+            box, c = np.vstack([box, box[:1] + 2.0]), np.append(c, c[0])
+        assert np.array_equal(fast.update(frame, c, box), ref.update(frame, c, box))
+        assert np.array_equal(fast.track_id, ref.track_id) and np.array_equal(fast.last, ref.last)
+        assert np.allclose(fast.vel, ref.vel) and np.array_equal(fast.has_vel, ref.has_vel)
+    assert fast.counts == ref.counts
+    assert fast.counts["links_2d_motion"] > 50 and fast.counts["links_2d_overlap"] > 50  # both kinds occur
 
 
 def test_iou_tracker_edge_cases():

@@ -76,12 +76,21 @@ class ReachLimit:
         if not n or not self.geometry.has_apparatus:
             return np.ones(n, bool)
         with np.errstate(invalid="ignore"):
-            away = (bottom_z > self.h_bot) & (apparatus_distance(xyz, self.geometry) > REACH)
+            away = bottom_z > self.h_bot
+        if away.any():  # the distance only where it can matter: most points stand on the floor
+            away[away] = apparatus_distance(np.asarray(xyz)[away], self.geometry) > REACH
+        if not away.any():  # every track here is grounded: its run, if any, has ended
+            for k in np.unique(tid).tolist():
+                self._open.pop(k, None)
+            self._forget(int(frame.max()))
+            return np.ones(n, bool)
         order = np.lexsort((frame, tid))  # each track's rows in frame order
         t, f, a, z = tid[order], frame[order], away[order], np.asarray(xyz, np.float64)[order, 2]
-        new_track = np.r_[True, t[1:] != t[:-1]]
+        new_track = np.ones(n, bool)
+        new_track[1:] = t[1:] != t[:-1]
         # a run of raised points away begins at an away row after a grounded row or a track's first row
-        begins = a & (new_track | ~np.r_[False, a[:-1]])
+        begins = a.copy()
+        begins[1:] &= new_track[1:] | ~a[:-1]
         start = np.where(begins, f, -1)
         run = np.cumsum(begins)  # each row's run (0: before any); runs ascend along the rows
         seed = np.zeros((run[-1] + 1, 3))  # per run: lowest z, highest z, level -- carried over the calls
@@ -100,18 +109,22 @@ class ReachLimit:
         level = a & (hi - lo < G * tau ** 2 / 8 - LEVEL_MARGIN)
         level = _running_max((level | (seed[run, 2] > 0)).astype(np.float64), run) > 0  # once level, it stays
         ok = ~a | ((f - first[run] < self.max_frames) & ~level)
-        last = np.r_[new_track[1:], True]  # each track's last row in this call
+        last = np.append(new_track[1:], True)  # each track's last row in this call
         for i in np.flatnonzero(last):
             if a[i]:
                 self._open[int(t[i])] = (int(first[run[i]]), int(f[i]), float(lo[i]), float(hi[i]), bool(level[i]))
             else:
                 self._open.pop(int(t[i]), None)
-        horizon = int(frame.max()) - self.max_frames
-        for k in [k for k, held in self._open.items() if held[1] < horizon]:
-            del self._open[k]
+        self._forget(int(frame.max()))
         out = np.empty(n, bool)
         out[order] = ok
         return out
+
+    def _forget(self, frame: int) -> None:
+        """Drop the runs whose track has not been seen for a flight's length before ``frame``."""
+        horizon = frame - self.max_frames
+        for k in [k for k, held in self._open.items() if held[1] < horizon]:
+            del self._open[k]
 
 
 def _running_max(x: np.ndarray, run: np.ndarray) -> np.ndarray:

@@ -155,9 +155,16 @@ def target_lone(tested: np.ndarray, kept: np.ndarray, regrouped: np.ndarray, tra
     (``prev_2d`` and ``prev_owner``, the linker's); empty without a target. A coach's view never
     belonged to the gymnast's track: sending every dropped segment on alone put coaches' single
     views on the plane."""
-    if target < 0 or not len(prev_2d):
+    tested = tested[tested >= 0]
+    if target < 0 or not len(prev_2d) or not len(tested):
         return np.zeros(0, np.int64)
-    dropped = np.setdiff1d(np.setdiff1d(tested[tested >= 0], kept[kept >= 0]), regrouped)
+    drop = np.zeros(int(tested.max()) + 1, bool)  # masks, not set operations: this runs every window
+    drop[tested] = True
+    for out in (kept, regrouped):
+        drop[out[(out >= 0) & (out < len(drop))]] = False
+    dropped = np.flatnonzero(drop)
+    if not len(dropped):
+        return dropped
     return dropped[np.isin(track2d[dropped], prev_2d[prev_owner == target])]
 
 

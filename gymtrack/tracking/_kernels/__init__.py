@@ -4,6 +4,7 @@ Paper: no method of its own; these are the hot loops of Section III-A (:mod:`.si
 :mod:`.windows`), III-B (:mod:`.clustering`: Eq. 2, Algorithm 1; :mod:`.reconstruct`: Eq. 3-4;
 :mod:`.linking`: Eq. 10-12, cascade+'s link by 2D tracks), III-C (:mod:`.plane`: Eq. 5-9; :mod:`.floor`: ``cascade+``'s floor, Eq. 5-9 on z = 0; :mod:`.fusion`: ``cascade+``'s ray-plane fusion;
 :mod:`.exclusion`: ``cascade+``'s duplicate suppression, :mod:`.regroup`: its dropped clusters' opposite pairs, :mod:`.records`: its superseded estimates) and the venue check (:mod:`.drift`: the residuals of a knocked or late camera) and III-D (:mod:`.target`: Eq. 14),
+and ``cascade+``'s motion-predicting per-view tracker (:mod:`.single_view_motion`),
 written as plain loops over the scalar primitives of :mod:`gymtrack.geometry.primitives`.
 The arrays of one frame or window are small (tens of boxes, tracklets of 10 frames), so
 numpy's per-call overhead dominated the vectorised versions; each kernel replaces a dozen or
@@ -54,7 +55,7 @@ def drop_stale_cache() -> int:
 drop_stale_cache()
 
 from . import (clustering, drift, exclusion, floor, fusion, linking, plane, reconstruct, records,  # noqa: E402
-               regroup, single_view, target, windows)  # (after the check)
+               regroup, single_view, single_view_motion, target, windows)  # (after the check)
 
 _WARM = False
 
@@ -65,7 +66,7 @@ def warm_up() -> None:
     global _WARM
     if _WARM:
         return
-    for module in (single_view, windows, clustering, reconstruct, linking, exclusion, records, plane, floor, fusion, target,
+    for module in (single_view, single_view_motion, windows, clustering, reconstruct, linking, exclusion, records, plane, floor, fusion, target,
                    drift, regroup, primitives):
         module.warm_up()
     # a full collection now, not during the first tracking call: after a first compile Python's
