@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .types import INTERPOLATED, TargetRows
+from .types import INTERPOLATED, TargetRows, member
 
 __all__ = ["G", "FIT_FRAMES", "Flight", "FlightKeeper", "fit_flight"]
 
@@ -180,7 +180,7 @@ class FlightKeeper:
         if fl is None or fl.reach() < a:
             return rows
         frames = np.arange(a, min(b, fl.reach()) + 1)
-        frames = frames[~np.isin(frames, seen)]
+        frames = frames[~member(frames, seen)]
         if not len(frames):
             return rows
         out = TargetRows.concat([self._points(fl, track, frames, rows.wh.shape[1:]), rows])

@@ -44,7 +44,7 @@ import numpy as np
 
 from ..scene import in_box
 from .chain import chain_back
-from .types import TargetRows
+from .types import TargetRows, member
 
 
 def identify_indicator(
@@ -184,7 +184,7 @@ class TargetSelector:
         when none takes over; else the frame before the take-over, whose frame is decided)."""
         q = self._ind & (self._tid != t) & (self._frame <= stop)
         if ended:
-            q &= ~np.isin(self._tid, np.fromiter(ended, np.int64, len(ended)))
+            q &= ~member(self._tid, np.fromiter(ended, np.int64, len(ended)))
         rows = np.flatnonzero(q)
         if len(rows) == 0:
             return stop
@@ -222,7 +222,7 @@ class TargetSelector:
         Returns the frame after the last one decided."""
         q = self._ind
         if ended:  # an ended track gets no more points: never (re-)identify it
-            q = q & ~np.isin(self._tid, np.fromiter(ended, np.int64, len(ended)))
+            q = q & ~member(self._tid, np.fromiter(ended, np.int64, len(ended)))
         rows = np.flatnonzero(q & (self._frame <= upto))
         if len(rows) == 0:
             return upto + 1

@@ -47,7 +47,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._kernels import regroup as kernels
-from .types import WindowTracklets3D
+from .types import WindowTracklets3D, member
 
 __all__ = ["regroup", "regroup_pairs", "gymnast_only", "pairs_only", "continuing", "target_lone", "send_alone"]
 
@@ -82,7 +82,7 @@ def gymnast_only(pl: WindowTracklets3D, regrouped: np.ndarray, performance_space
     ``rejoin``: one view continuing its track, :func:`continuing`; a coach's one view stays out).
     Counted in ``regrouped_left_out``; None when nothing is left."""
     m = pl.members
-    mine = np.isin(m, regrouped).any(axis=1)
+    mine = member(m.ravel(), regrouped).reshape(m.shape).any(axis=1)
     if not mine.any():
         return pl
     v = pl.valid
@@ -165,7 +165,7 @@ def target_lone(tested: np.ndarray, kept: np.ndarray, regrouped: np.ndarray, tra
     dropped = np.flatnonzero(drop)
     if not len(dropped):
         return dropped
-    return dropped[np.isin(track2d[dropped], prev_2d[prev_owner == target])]
+    return dropped[member(track2d[dropped], prev_2d[prev_owner == target])]
 
 
 def send_alone(seg: np.ndarray, n_segments: int, regrouped: np.ndarray, groups: np.ndarray | None, to_plane: np.ndarray,

@@ -50,7 +50,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from ..errors import InputError
-from ._kernels.single_view_motion import motion_frame
+from ._kernels.single_view_motion import keep_live, motion_commit, motion_frame
 
 #: body heights per second a box centre may move (1.7 m/s for a 1.7 m person: a brisk walk)
 SPEED = 1.0
@@ -113,51 +113,28 @@ class MotionIoUTracker:
     def __len__(self) -> int:
         return len(self.track_id)
 
-    def _keep(self, keep: np.ndarray) -> None:
-        self.box, self.vel, self.has_vel = self.box[keep], self.vel[keep], self.has_vel[keep]
-        self.camera, self.last, self.track_id = self.camera[keep], self.last[keep], self.track_id[keep]
-
     def update(self, frame: int, camera: np.ndarray, box: np.ndarray) -> np.ndarray:
         """Link one frame's boxes to tracks. frame: increasing; camera: (N,) camera index; box:
         (N, 4) centre-form boxes. Returns (N,) int64 2D track ids."""
-        camera = np.asarray(camera, dtype=np.int64)
-        box = np.asarray(box, dtype=np.float64).reshape(-1, 4)
-        alive = frame - self.last <= self.max_age + 1
-        if not alive.all():
-            self.counts["tracks_2d_lost"] += int(np.count_nonzero(~alive))
-            self._keep(alive)
-        N, T = len(box), len(self.track_id)
-        ids = np.full(N, -1, np.int64)
-        if T and N:
-            dt = (frame - self.last).astype(np.float64)
-            r, c, crow, ccol, cost, sub, overlap = motion_frame(self.box, self.vel, self.has_vel, self.camera, dt, camera, box,
-                                                                self.speed_per_frame, self.noise, self.size_gate,
-                                                                self.iou_threshold)
+        camera = np.ascontiguousarray(camera, dtype=np.int64)
+        box = np.ascontiguousarray(np.asarray(box, dtype=np.float64).reshape(-1, 4))
+        state = (self.box, self.vel, self.has_vel, self.camera, self.last, self.track_id)
+        if len(self.last) and self.last.min() < frame - self.max_age - 1:
+            state = keep_live(*state, int(frame), self.max_age)
+            self.counts["tracks_2d_lost"] += len(self.last) - len(state[5])
+        r = c = np.zeros(0, np.int64)
+        if len(state[5]) and len(box):
+            r, c, crow, ccol, cost, sub, overlap = motion_frame(
+                state[0], state[1], state[2], state[3], (frame - state[4]).astype(np.float64), camera, box,
+                self.speed_per_frame, self.noise, self.size_gate, self.iou_threshold)
             if len(crow):  # conflicts: the assignment (the least summed offset), on their tracks and boxes only
                 rr, cc = linear_sum_assignment(cost)
                 keep = sub[rr, cc]
                 r, c = np.concatenate([r, crow[rr[keep]]]), np.concatenate([c, ccol[cc[keep]]])
-            if len(r):
-                by_overlap = int(np.count_nonzero(overlap[r, c]))
-                self.counts["links_2d_overlap"] += by_overlap
-                self.counts["links_2d_motion"] += len(r) - by_overlap
-                step = dt[r][:, None]
-                v = (box[c, :2] - self.box[r, :2]) / step
-                a = np.where(self.has_vel[r], self.smoothing, 1.0)[:, None]
-                self.vel[r] = a * v + (1.0 - a) * self.vel[r]
-                self.has_vel[r] = True
-                self.box[r] = box[c]
-                self.last[r] = frame
-                ids[c] = self.track_id[r]
-        new = np.flatnonzero(ids < 0)
-        if len(new):
-            ids[new] = self.next_id + np.arange(len(new))
-            self.next_id += len(new)
-            self.counts["tracks_2d_started"] += len(new)
-            self.box = np.concatenate([self.box, box[new]])
-            self.vel = np.concatenate([self.vel, np.zeros((len(new), 2))])
-            self.has_vel = np.concatenate([self.has_vel, np.zeros(len(new), bool)])
-            self.camera = np.concatenate([self.camera, camera[new]])
-            self.last = np.concatenate([self.last, np.full(len(new), frame, np.int64)])
-            self.track_id = np.concatenate([self.track_id, ids[new]])
+            by_overlap = int(np.count_nonzero(overlap[r, c]))
+            self.counts["links_2d_overlap"] += by_overlap
+            self.counts["links_2d_motion"] += len(r) - by_overlap
+        *state, ids, self.next_id = motion_commit(*state, self.next_id, int(frame), camera, box, r, c, self.smoothing)
+        self.box, self.vel, self.has_vel, self.camera, self.last, self.track_id = state
+        self.counts["tracks_2d_started"] += len(box) - len(r)
         return ids

@@ -82,7 +82,7 @@ from .single_view_motion import MotionIoUTracker, needs_motion
 from .handover import TargetHandover
 from .ballistic import FlightKeeper
 from .target import TargetStage
-from .types import TrackerOutput, Tracks3D, WindowTracklets, WindowTracklets3D
+from .types import TrackerOutput, Tracks3D, WindowTracklets, WindowTracklets3D, member
 from .records import BoxTable, WindowRecords
 from .summary import STAGES, tracker_summary
 from .windows import build_window
@@ -333,7 +333,7 @@ class Tracker:
         solo, by_2d = continuation_only(len(cur), tri, floor, plane, self.counts)  # (floor rows: by their 2D tracks)
         own = None
         if plane is not None and len(self._regrouped):  # a regrouped pair only continues a track (.regroup)
-            mine = np.isin(plane.members, self._regrouped).any(axis=1)
+            mine = member(plane.members.ravel(), self._regrouped).reshape(plane.members.shape).any(axis=1)
             solo[len(cur) - len(plane):] |= mine
             if self.method.rejoin:  # its own track: a pair wherever the wrong cluster had put it, one view near it
                 views = (plane.members >= 0).sum(axis=1)

@@ -36,6 +36,14 @@ SOURCE_NAMES: tuple[str, ...] = ("triangulation", "plane", "interpolated")
 _FIELD_NAMES: dict[type, tuple[str, ...]] = {}
 
 
+def member(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.isin(a, b)`` for the small id arrays of one window or frame ((n,), (m,) -> (n,) bool): one
+    broadcast comparison, ~10 x cheaper than ``np.isin``'s general path at these sizes."""
+    if a.size * b.size > 65536:
+        return np.isin(a, b)
+    return (a[:, None] == b[None, :]).any(axis=1) if b.size else np.zeros(a.shape, bool)
+
+
 def _field_names(cls) -> tuple[str, ...]:
     """The dataclass's field names, looked up once per class (``fields()`` is slow per call)."""
     names = _FIELD_NAMES.get(cls)
