@@ -34,6 +34,32 @@ def _ballistic(f, apex_frame, z_apex=3.0):
     return z_apex - G / 2 * ((np.asarray(f) - apex_frame) / FPS) ** 2
 
 
+def test_compiled_distance_is_the_placements_on_turned_and_moved_apparatus():
+    """The reach rule's compiled distance against :func:`gymtrack.placement.apparatus_distance`
+    (the numpy original) on every preset, turned by a random yaw and moved, and with no
+    apparatus; points near and far, inside blocks, and one with a NaN."""
+    from dataclasses import replace
+
+    from gymtrack.tracking._kernels.target import apparatus_distance as compiled
+
+    rng = np.random.default_rng(11)
+    for app in ("uneven_bars", "horizontal_bar", "parallel_bars", "still_rings", "pommel_horse", "balance_beam", "vault", None):
+        geo = scene_geometry(preset_scene(app)) if app else scene_geometry(preset_scene("vault"))
+        if app is None:
+            geo = replace(geo, bar_a=np.zeros((0, 3)), bar_b=np.zeros((0, 3)), bar_r=np.zeros(0), box_lo=np.zeros((0, 3)),
+                          box_hi=np.zeros((0, 3)))
+        geo = replace(geo, yaw=float(rng.uniform(-np.pi, np.pi)), shift=rng.normal(0, 0.5, 3))
+        X = rng.uniform(-2.5, 2.5, (500, 3)) + [0, 0, 1.5]
+        X[7, 2] = np.nan
+        want = apparatus_distance(X, geo)
+        got = compiled(X, *ReachLimit(geo, 0.3, FPS)._surfaces)
+        assert np.array_equal(np.isnan(got), np.isnan(want)) and np.array_equal(np.isinf(got), np.isinf(want))
+        ok = np.isfinite(want)
+        assert np.allclose(got[ok], want[ok], atol=1e-12)
+        if app is not None:
+            assert (want[ok] < REACH).sum() > 20  # near points are tested too
+
+
 def test_the_level_count_is_the_bound_less_the_margin():
     assert G * ((LEVEL - 1) / FPS) ** 2 / 8 <= LEVEL_MARGIN < G * (LEVEL / FPS) ** 2 / 8
 

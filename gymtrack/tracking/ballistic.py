@@ -130,18 +130,34 @@ class FlightKeeper:
     def __init__(self, fps: float, counts: dict):
         self.fps, self.counts = float(fps), counts
         self.keep = int(round(SUPPORT_SECONDS * fps))
-        self.rows: TargetRows | None = None  # every track's points of the last SUPPORT_SECONDS
+        # every track's points of the last SUPPORT_SECONDS, as the windows gave them: joined only
+        # when a fit asks (most windows' targets have a point in every frame and ask nothing)
+        self._chunks: list[TargetRows] = []
+        self._cut = -(1 << 62)  # points at or before this frame have left the history
 
     def __len__(self) -> int:
         return 0 if self.rows is None else len(self.rows)
+
+    @property
+    def rows(self) -> TargetRows | None:
+        """Every track's points of the last SUPPORT_SECONDS (frame order), or None."""
+        if not self._chunks:
+            return None
+        h = self._chunks[0] if len(self._chunks) == 1 else TargetRows.concat(self._chunks)
+        old = h.frame <= self._cut
+        if old.any():
+            h = h.take(~old)
+        self._chunks = [h]
+        return h
 
     def observe(self, rows: TargetRows) -> None:
         """Points of every track (frame order) join the history; the oldest leave it."""
         if not len(rows):
             return
-        h = rows if self.rows is None else TargetRows.concat([self.rows, rows])
-        old = h.frame <= h.frame[-1] - self.keep
-        self.rows = h.take(~old) if old.any() else h
+        self._chunks.append(rows)
+        self._cut = max(self._cut, int(rows.frame[-1]) - self.keep)
+        while len(self._chunks) > 1 and self._chunks[0].frame[-1] <= self._cut:  # (wholly old)
+            del self._chunks[0]
 
     def flight(self, track: int, upto: int | None = None) -> Flight | None:
         """The fit to the last points of ``track`` up to frame ``upto`` (None: all held), or None."""
@@ -171,7 +187,7 @@ class FlightKeeper:
         within reach of an airborne fit there, get the predicted point as the track's (first in
         their frame, so that a real point of a track that took over is the one the target keeps)."""
         self.observe(rows)
-        if track < 0 or self.rows is None:
+        if track < 0 or not self._chunks:
             return rows
         seen = rows.frame[rows.track_id == track]
         if len(seen) == b - a + 1:  # a point in every frame (the common case): nothing to predict
@@ -204,7 +220,7 @@ class FlightKeeper:
         i = rows.frame - a
         has[i[rows.track_id == target[i]]] = True
         held = np.flatnonzero((target >= 0) & ~has)
-        if not len(held) or self.rows is None:
+        if not len(held) or not self._chunks:
             return rows
         add = []
         for k in _runs(held, target[held]):

@@ -31,7 +31,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..placement import Geometry, apparatus_distance
+from ..placement import Geometry, yaw_rotation
+from ._kernels.target import apparatus_distance
 from .ballistic import G
 
 __all__ = ["REACH", "MAX_FLIGHT_SECONDS", "LEVEL_MARGIN", "ReachLimit"]
@@ -62,6 +63,11 @@ class ReachLimit:
 
     def __init__(self, geometry: Geometry, h_bot: float, fps: float):
         self.geometry, self.h_bot, self.fps = geometry, float(h_bot), float(fps)
+        g = geometry  # the surfaces as the compiled distance reads them
+        self._has_apparatus = g.has_apparatus
+        self._surfaces = tuple(np.ascontiguousarray(np.reshape(a, shape), np.float64) for a, shape in (
+            (g.bar_a, (-1, 3)), (g.bar_b, (-1, 3)), (g.bar_r, (-1,)), (g.box_lo, (-1, 3)), (g.box_hi, (-1, 3)),
+            (yaw_rotation(g.yaw), (3, 3)), (g.shift, (3,))))
         self.max_frames = int(round(MAX_FLIGHT_SECONDS * fps))
         # track id -> (first frame of its run, last frame, lowest z, highest z, level)
         self._open: dict[int, tuple[int, int, float, float, bool]] = {}
@@ -73,16 +79,17 @@ class ReachLimit:
         """(n,) rows in frame order -> (n,) bool: False where the point is raised away from the
         apparatus for longer than a flight, or too level for one (it must not count for Eq. 13)."""
         n = len(frame)
-        if not n or not self.geometry.has_apparatus:
+        if not n or not self._has_apparatus:
             return np.ones(n, bool)
-        with np.errstate(invalid="ignore"):
-            away = bottom_z > self.h_bot
-        if away.any():  # the distance only where it can matter: most points stand on the floor
-            away[away] = apparatus_distance(np.asarray(xyz)[away], self.geometry) > REACH
+        away = bottom_z > self.h_bot  # (NaN: False)
+        raised = np.flatnonzero(away)
+        if len(raised):  # the distance only where it can matter: most points stand on the floor
+            away[raised] = apparatus_distance(np.ascontiguousarray(xyz[raised], np.float64), *self._surfaces) > REACH
         if not away.any():  # every track here is grounded: its run, if any, has ended
-            for k in np.unique(tid).tolist():
-                self._open.pop(k, None)
-            self._forget(int(frame.max()))
+            if self._open:
+                for k in set(tid.tolist()).intersection(self._open):
+                    del self._open[k]
+                self._forget(int(frame.max()))
             return np.ones(n, bool)
         order = np.lexsort((frame, tid))  # each track's rows in frame order
         t, f, a, z = tid[order], frame[order], away[order], np.asarray(xyz, np.float64)[order, 2]
