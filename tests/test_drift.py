@@ -184,19 +184,22 @@ def test_scan_steps_finds_a_steps_length_and_weighs_it_in_its_means_scatter():
 
 
 def test_scan_nanmedian_is_numpys():
-    """The scan's median by one sort against ``np.nanmedian`` (axis 1): rows with gaps, rows all
-    NaN, odd and even counts, 2D and 3D samples; bit for bit."""
+    """The scan's median by one sort against ``np.nanmedian`` (axis 1 and 2): rows with gaps, rows
+    all NaN, odd and even counts, 2D to 4D samples; bit for bit."""
     from gymtrack.tracking.drift_scan import nanmedian
 
     rng = np.random.default_rng(5)
     for _ in range(300):
         shape = (int(rng.integers(1, 6)), int(rng.integers(1, 12))) + ((2,) if rng.random() < 0.5 else ())
+        axis = 1
+        if rng.random() < 0.3:
+            shape, axis = (shape[0], 3) + shape[1:], 2
         x = rng.normal(size=shape)
         x[rng.random(shape) < rng.random()] = np.nan
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
-            want = np.nanmedian(x, axis=1)
-        assert np.array_equal(nanmedian(x), want, equal_nan=True)
+            want = np.nanmedian(x, axis=axis)
+        assert np.array_equal(nanmedian(x, axis), want, equal_nan=True)
 
 
 def test_a_turn_that_comes_and_goes_is_not_reported(sim):
