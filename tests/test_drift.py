@@ -183,10 +183,26 @@ def test_scan_steps_finds_a_steps_length_and_weighs_it_in_its_means_scatter():
         assert np.allclose(g, w, equal_nan=True, atol=1e-15)
 
 
-def test_scan_nanmedian_is_numpys():
-    """The scan's median by one sort against ``np.nanmedian`` (axis 1 and 2): rows with gaps, rows
-    all NaN, odd and even counts, 2D to 4D samples; bit for bit."""
-    from gymtrack.tracking.drift_scan import nanmedian
+def test_scan_kernel_matches_the_numpy_scan_and_its_median_numpys():
+    """The compiled change scan against its numpy reference on random histories (gaps, keys
+    never judged, steps of any length, capped and uncapped): the same step, shifts, sigmas,
+    scatters and baselines (bit for bit, but for the order of the keys' sum). The reference's
+    median by one sort against ``np.nanmedian`` (axis 1 and 2), bit for bit."""
+    from gymtrack.tracking.drift_scan import scan_steps
+    from reference.drift import nanmedian, scan_steps_numpy
+
+    rng = np.random.default_rng(4)
+    for _ in range(300):
+        Nk, nb, nr = int(rng.integers(1, 40)), int(rng.integers(2, 12)), int(rng.integers(1, 4))
+        L = nb + nr + int(rng.integers(0, 20))
+        meds = rng.normal(scale=1e-3, size=(Nk, L, 2))
+        meds[rng.random((Nk, L)) < rng.random() * 0.5] = np.nan
+        meds[:, -int(rng.integers(1, L - nb + 1)):, 0] += rng.normal() * 1e-2
+        cap, shortest = float(rng.choice([np.inf, 16.0, 4.0])), (None, nr)[int(rng.integers(0, 2))]
+        got, want = scan_steps(meds, nb, nr, 1e-5, cap, shortest), scan_steps_numpy(meds, nb, nr, 1e-5, cap, shortest)
+        assert got[-1] == want[-1]
+        for g, w in zip(got[:-1], want[:-1]):
+            assert np.array_equal(g, w, equal_nan=True)
 
     rng = np.random.default_rng(5)
     for _ in range(300):

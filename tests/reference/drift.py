@@ -80,3 +80,34 @@ def steps_numpy(meds, nb, min_sigma):
     ready = (np.isfinite(base_meds[..., 0]).sum(1) >= nb - 1) & np.isfinite(shift).all(axis=1)
     return (np.where(ready[:, None], np.nan_to_num(shift), 0.0), np.where(ready, np.maximum(min_sigma, np.nan_to_num(scatter)), np.inf),
             base)
+
+
+def scan_steps_numpy(meds, n_base, n_recent, min_sigma, cap, shortest=None):
+    """gymtrack.tracking.drift_scan.scan_steps before it was compiled: every candidate at once in numpy."""
+    Nk, L, _ = meds.shape
+    ms = np.arange(shortest or n_recent, L - n_base + 1)  # every candidate at once: (Nk, M, ...) below
+    b = meds[:, (L - ms - n_base)[:, None] + np.arange(n_base)]  # (Nk, M, n_base, 2) each candidate's baseline
+    good = np.isfinite(b[..., 0])
+    base = nanmedian(b, axis=2)
+    spread = nanmedian(np.linalg.norm(b - base[:, :, None], axis=3), axis=2)
+    recent = np.isfinite(meds[:, None, :, 0]) & (np.arange(L) >= (L - ms)[:, None])  # (Nk, M, L)
+    n_r = recent.sum(axis=2)
+    ready = (good.sum(axis=2) >= n_base - 1) & (n_r >= n_recent)
+    # (the sum runs over the samples in order, the earlier ones as exact zeros: as over the recent ones alone)
+    total = np.where(recent[..., None], meds[:, None] - base[:, :, None], 0.0).sum(axis=2)
+    shift = np.where(ready[..., None], total / np.maximum(n_r, 1)[..., None], 0.0)
+    scatter = np.where(ready, np.maximum(min_sigma, 1.4826 * np.nan_to_num(spread)), np.inf)
+    sigma = scatter * np.sqrt(n_recent / np.maximum(n_r, 1))
+    chi = np.ascontiguousarray(np.minimum(cap, (shift ** 2).sum(axis=2) / sigma ** 2).T).sum(axis=1)  # (M,) per candidate
+    k = int(np.argmax(chi))  # (the shortest of equals)
+    return shift[:, k], sigma[:, k], scatter[:, k], base[:, k], int(ms[k])
+
+
+def nanmedian(x: np.ndarray, axis: int = 1) -> np.ndarray:
+    """``np.nanmedian(x, axis)`` (NaN where there is no value, without a warning) by one sort
+    (numpy's goes through masked arrays for small inputs)."""
+    s = np.sort(x, axis=axis)  # NaNs last
+    n = (~np.isnan(s)).sum(axis=axis, keepdims=True)
+    lo = np.take_along_axis(s, np.maximum(n - 1, 0) // 2, axis=axis)  # (no values: the NaN at 0)
+    hi = np.take_along_axis(s, n // 2, axis=axis)
+    return np.squeeze((lo + hi) / 2, axis=axis)

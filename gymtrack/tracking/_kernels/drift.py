@@ -3,7 +3,7 @@
 :func:`residuals`: one window's residuals -- the point one view pair triangulates (Eq. 3's
 two-view case, midpoint of the rays) projected into each third view that saw it, minus where that
 view saw it -- and the sync regression's sums; :func:`medians`: a sample's rows grouped per
-camera x pair with their medians.
+camera x pair with their medians; :func:`scan_steps`: the change scan of :mod:`..drift_scan`.
 One call each instead of some sixty numpy calls and a median per group; the numpy
 code they replace is ``tests/reference/drift.py`` (same residuals up to rounding, same medians).
 """
@@ -127,6 +127,65 @@ def medians(key, R, X, S, n_keys, min_points):
     return med, start, X[order], S[order]
 
 
+@njit(cache=True, inline="always")
+def _median_of(buf, n):
+    """The median of ``buf[:n]`` (sorted in place; NaN when n = 0): numpy's, the two middle values' mean."""
+    if n == 0:
+        return np.nan
+    s = np.sort(buf[:n])
+    return (s[(n - 1) // 2] + s[n // 2]) / 2
+
+
+@njit(cache=True, error_model="numpy")
+def scan_steps(meds, n_base, n_recent, min_sigma, cap, shortest):
+    """:func:`gymtrack.tracking.drift_scan.scan_steps` in one call: every candidate step m
+    (``shortest .. L - n_base`` recent samples) weighed over every key, the first of the best
+    kept. meds (Nk, L, 2). Returns shift (Nk, 2), sigma (Nk,), scatter (Nk,), base (Nk, 2), m."""
+    Nk, L = meds.shape[0], meds.shape[1]
+    best_chi, best_m = -1.0, shortest
+    shift, sigma, scatter, base = np.zeros((Nk, 2)), np.full(Nk, np.inf), np.full(Nk, np.inf), np.full((Nk, 2), np.nan)
+    sh, sg, sc, bs = np.zeros((Nk, 2)), np.empty(Nk), np.empty(Nk), np.empty((Nk, 2))
+    buf = np.empty(n_base)
+    for m in range(shortest, L - n_base + 1):
+        lo, chi = L - m - n_base, 0.0
+        for k in range(Nk):
+            good = 0
+            for i in range(n_base):
+                good += np.isfinite(meds[k, lo + i, 0])
+            for q in range(2):
+                n = 0
+                for i in range(n_base):
+                    v = meds[k, lo + i, q]
+                    if v == v:
+                        buf[n] = v
+                        n += 1
+                bs[k, q] = _median_of(buf, n)
+            n = 0
+            for i in range(n_base):
+                dx, dy = meds[k, lo + i, 0] - bs[k, 0], meds[k, lo + i, 1] - bs[k, 1]
+                d = np.sqrt(dx * dx + dy * dy)
+                if d == d:
+                    buf[n] = d
+                    n += 1
+            spread = _median_of(buf, n)
+            n_r, t0, t1 = 0, 0.0, 0.0
+            for i in range(L - m, L):
+                if np.isfinite(meds[k, i, 0]):
+                    n_r += 1
+                    t0 += meds[k, i, 0] - bs[k, 0]
+                    t1 += meds[k, i, 1] - bs[k, 1]
+            ready = good >= n_base - 1 and n_r >= n_recent
+            n1 = max(n_r, 1)
+            sh[k, 0], sh[k, 1] = (t0 / n1, t1 / n1) if ready else (0.0, 0.0)
+            sc[k] = max(min_sigma, 1.4826 * (0.0 if spread != spread else spread)) if ready else np.inf
+            sg[k] = sc[k] * np.sqrt(n_recent / n1)
+            chi += min(cap, (sh[k, 0] ** 2 + sh[k, 1] ** 2) / sg[k] ** 2)
+        if chi > best_chi:
+            best_chi, best_m = chi, m
+            shift[:], sigma[:], scatter[:], base[:] = sh, sg, sc, bs
+    return shift, sigma, scatter, base, best_m
+
+
 def warm_up() -> None:
     """Compile (or load) the kernels: three views of a synthetic cluster, and a short history."""
     C, W = 3, 4
@@ -138,3 +197,4 @@ def warm_up() -> None:
     key, R, X, S, _, _ = residuals(box, np.ones((C, W), np.bool_), np.arange(C, dtype=np.int64).reshape(1, C), eye, eye,
                                 np.eye(3), Pn, pa, pb, 0.05, 1, W - 1)
     medians(key, R, X, S, C * len(pa), 8)
+    scan_steps(np.zeros((2, 6, 2)), 3, 2, 1e-5, 16.0, 2)
