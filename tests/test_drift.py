@@ -69,7 +69,7 @@ def test_turn_jacobian_predicts_the_residuals_of_a_turned_camera(sim):
         assert len(judged) >= 3
         for k in judged:
             want = after[k] - before[k]
-            got = mon._jacobian(c, k, *points[k]) @ w
+            got = mon._jacobians(c, np.array([k]), points[k][0][None], points[k][1][None])[0] @ w
             assert np.linalg.norm(got - want) <= 0.05 * np.linalg.norm(want) + 1e-6, (c, k)
         for k in before:
             if not mon.involves[c, k]:

@@ -190,33 +190,34 @@ class DriftMonitor:
         scatter (inf where not judged), the baseline (2,); the recent samples (:func:`.scan_steps`)."""
         return scan_steps(self.meds, self.n_base, self.n_recent, SIGMA_MIN, CAP)
 
-    def _jacobian(self, c: int, k: int, X: np.ndarray, seen: np.ndarray) -> np.ndarray:
-        """(2, 3) how key ``k``'s residual moves as camera ``c`` (involved in it) turns by a small
-        rotation vector (its camera coordinates), at the world point ``X`` it judges and where the
-        judged camera saw it (normalised ``seen`` (2,)). Its own key: the seen point moves; a key
-        whose pair holds it: the pair's point moves (its rays through ``X`` re-triangulated) and
-        so does its projection into the judged camera."""
-        j, p = int(self.key_camera[k]), k % len(self.pairs[0])
-        if j == c:
-            x, y = seen
-            return np.array([[-x * y, 1 + x * x, -y], [-(1 + y * y), x * y, x]])
+    def _jacobians(self, c: int, k: np.ndarray, X: np.ndarray, seen: np.ndarray) -> np.ndarray:
+        """(n, 2, 3) how keys ``k``'s (n,) residuals move as camera ``c`` (involved in each) turns by
+        a small rotation vector (its camera coordinates), at the world points ``X`` (n, 3) they judge
+        and where the judged cameras saw them (normalised ``seen`` (n, 2)). Its own key: the seen
+        point moves; a key whose pair holds it: the pair's point moves (its rays through ``X``
+        re-triangulated) and so does its projection into the judged camera."""
+        j, p = self.key_camera[k], k % len(self.pairs[0])
         a, b = self.pairs[0][p], self.pairs[1][p]
         ca, cb = self.centres[a], self.centres[b]
-        R, eps = self.rig[c].R, 1e-4
         # the camera's ray through X as it is and turned by eps about each of its axes (world), the
         # other's ray as it is; their midpoints (Eq. 3's two-view case) seen from the judged camera
-        d = np.stack([X - (ca if c == a else cb)] * 4)
-        d[1:] = np.einsum("nij,j->ni", R.T @ _SMALL_TURNS @ R, d[0])
-        da, db = (d, np.broadcast_to(X - cb, (4, 3))) if c == a else (np.broadcast_to(X - ca, (4, 3)), d)
-        w = ca - cb
-        aa, bb, cc = (da * da).sum(1), (da * db).sum(1), (db * db).sum(1)
-        dw, ew = da @ w, db @ w
-        den = aa * cc - bb * bb
-        P = (ca + ((bb * ew - cc * dw) / den)[:, None] * da + cb + ((aa * ew - bb * dw) / den)[:, None] * db) / 2
-        q = P @ self.Pn[j, :, :3].T + self.Pn[j, :, 3]
-        seen_j = q[:, :2] / q[:, 2:]
-        J = -(seen_j[1:] - seen_j[0]).T
-        return J / eps
+        R, eps, first = self.rig[c].R, 1e-4, (a == c)[:, None, None]
+        d = np.repeat((X - np.where(first[:, 0], ca, cb))[:, None], 4, axis=1)  # (n, 4, 3)
+        d[:, 1:] = np.einsum("mij,nj->nmi", R.T @ _SMALL_TURNS @ R, d[:, 0])
+        other = np.broadcast_to((X - np.where(first[:, 0], cb, ca))[:, None], d.shape)
+        da, db = np.where(first, d, other), np.where(first, other, d)
+        w = (ca - cb)[:, None]
+        aa, bb, cc = (da * da).sum(2), (da * db).sum(2), (db * db).sum(2)
+        dw, ew = (da * w).sum(2), (db * w).sum(2)
+        den = aa * cc - bb * bb  # (0 for the own keys, whose pair lacks c: they take the closed form below)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            P = (ca[:, None] + ((bb * ew - cc * dw) / den)[..., None] * da + cb[:, None] + ((aa * ew - bb * dw) / den)[..., None] * db) / 2
+            q = np.einsum("nmk,nik->nmi", P, self.Pn[j, :, :3]) + self.Pn[j, None, :, 3]
+            seen_j = q[..., :2] / q[..., 2:]
+        J = -(seen_j[:, 1:] - seen_j[:, :1]).transpose(0, 2, 1) / eps
+        x, y = seen[:, 0], seen[:, 1]
+        own = np.stack([np.stack([-x * y, 1 + x * x, -y], 1), np.stack([-(1 + y * y), x * y, x], 1)], 1)
+        return np.where((j == c)[:, None, None], own, J)
 
     def _fit(self, shift: np.ndarray, sigma: np.ndarray, keys: np.ndarray, recent: int) -> list:
         """Per camera: (misfit, turn (3,), own, pred) -- the rotation of that camera alone that best
@@ -231,6 +232,7 @@ class DriftMonitor:
             if len(X):
                 rep[k] = (np.median(X, axis=0), np.median(S, axis=0))
         keys = np.array([k for k in keys if k in rep], np.int64)
+        pts, seen = (np.array([rep[k][q] for k in keys]).reshape(-1, 3 - q) for q in (0, 1))
         z = shift[keys] / sigma[keys, None]  # (n, 2)
         prior = np.diag([1e-6, 1e-6, 1 / np.radians(ROLL_DEG) ** 2])
         out = []
@@ -241,8 +243,8 @@ class DriftMonitor:
                 out.append((np.inf, None, 0.0, None))
                 continue
             A = np.zeros((len(keys), 2, 3))
-            for i in np.flatnonzero(inv):
-                A[i] = self._jacobian(c, keys[i], *rep[keys[i]]) / sigma[keys[i]]
+            i = np.flatnonzero(inv)
+            A[i] = self._jacobians(c, keys[i], pts[i], seen[i]) / sigma[keys[i], None, None]
             weight = inv.astype(float)
             for _ in range(4):  # least squares, then Huber's reweighting
                 w = np.linalg.solve(np.einsum("n,nji,njk->ik", weight, A, A) + prior, np.einsum("n,nji,nj->i", weight, A, z))
