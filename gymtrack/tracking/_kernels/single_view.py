@@ -95,27 +95,39 @@ def iou_frame(tbox, tcam, tlast, tid, frame, max_age, camera, box, threshold):
                 allowed[i, j] = True
                 row_count[i] += 1
                 col_count[j] += 1
-    # direct matches: an allowed pair whose track and box have no other candidate
+    rows, cols, conflict_rows, conflict_cols, cost, sub = split_conflicts(iou, allowed, row_count, col_count)
+    return tb, tc, tl, ti, cb, rows, cols, conflict_rows, conflict_cols, cost, sub
+
+
+@njit(cache=True)
+def split_conflicts(score, allowed, row_count, col_count):
+    """The allowed pairs (T, N) of one frame split: those whose track and box have no other
+    allowed partner (``row_count``, ``col_count``: the allowed pairs per track and box) are
+    matched directly; the tracks and boxes of the rest (the conflicting components) go to the
+    caller's assignment as a sub-matrix, ``-score`` where allowed and 0 elsewhere (the cost of
+    :func:`gymtrack.tracking.single_view.assign`). Returns (rows, cols, conflict_rows (R,),
+    conflict_cols (Q,), cost (R, Q), allowed (R, Q))."""
+    T, N = allowed.shape
     n_direct = 0
-    for i in range(n_keep):
-        for j in range(N):
-            if allowed[i, j] and row_count[i] == 1 and col_count[j] == 1:
-                n_direct += 1
-    rows = np.empty(n_direct, np.int64)
-    cols = np.empty(n_direct, np.int64)
-    in_row = np.zeros(n_keep, np.bool_)  # a track / box in a conflicting component
+    in_row = np.zeros(T, np.bool_)  # a track / box in a conflicting component
     in_col = np.zeros(N, np.bool_)
-    k = 0
-    for i in range(n_keep):
+    for i in range(T):
         for j in range(N):
             if allowed[i, j]:
                 if row_count[i] == 1 and col_count[j] == 1:
-                    rows[k] = i
-                    cols[k] = j
-                    k += 1
+                    n_direct += 1
                 else:
                     in_row[i] = True
                     in_col[j] = True
+    rows = np.empty(n_direct, np.int64)
+    cols = np.empty(n_direct, np.int64)
+    k = 0
+    for i in range(T):
+        for j in range(N):
+            if allowed[i, j] and row_count[i] == 1 and col_count[j] == 1:
+                rows[k] = i
+                cols[k] = j
+                k += 1
     conflict_rows = np.flatnonzero(in_row)
     conflict_cols = np.flatnonzero(in_col)
     R, Q = conflict_rows.shape[0], conflict_cols.shape[0]
@@ -125,9 +137,9 @@ def iou_frame(tbox, tcam, tlast, tid, frame, max_age, camera, box, threshold):
         for b in range(Q):
             i, j = conflict_rows[a], conflict_cols[b]
             if allowed[i, j]:
-                cost[a, b] = -iou[i, j]
+                cost[a, b] = -score[i, j]
                 sub[a, b] = True
-    return tb, tc, tl, ti, cb, rows, cols, conflict_rows, conflict_cols, cost, sub
+    return rows, cols, conflict_rows, conflict_cols, cost, sub
 
 
 @njit(cache=True)

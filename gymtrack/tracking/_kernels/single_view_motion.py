@@ -17,6 +17,7 @@ import numpy as np
 from numba import njit
 
 from .sample import sample
+from .single_view import split_conflicts
 
 
 @njit(cache=True)
@@ -74,37 +75,7 @@ def motion_frame(tbox, tvel, has_vel, tcam, dt, camera, box, speed_per_frame, no
             ih = min(tbox[i, 1] + 0.5 * tbox[i, 3], box[j, 1] + 0.5 * box[j, 3]) - max(tbox[i, 1] - 0.5 * tbox[i, 3], box[j, 1] - 0.5 * box[j, 3])
             inter = max(iw, 0.0) * max(ih, 0.0)
             overlap[i, j] = inter / (tbox[i, 2] * tbox[i, 3] + box[j, 2] * box[j, 3] - inter) >= iou_threshold
-    n_direct = 0
-    in_row = np.zeros(T, np.bool_)  # a track / box in a conflicting component
-    in_col = np.zeros(N, np.bool_)
-    for i in range(T):
-        for j in range(N):
-            if allowed[i, j]:
-                if row_count[i] == 1 and col_count[j] == 1:
-                    n_direct += 1
-                else:
-                    in_row[i] = True
-                    in_col[j] = True
-    rows = np.empty(n_direct, np.int64)
-    cols = np.empty(n_direct, np.int64)
-    k = 0
-    for i in range(T):
-        for j in range(N):
-            if allowed[i, j] and row_count[i] == 1 and col_count[j] == 1:
-                rows[k] = i
-                cols[k] = j
-                k += 1
-    conflict_rows = np.flatnonzero(in_row)
-    conflict_cols = np.flatnonzero(in_col)
-    R, Q = conflict_rows.shape[0], conflict_cols.shape[0]
-    cost = np.zeros((R, Q))
-    sub = np.zeros((R, Q), np.bool_)
-    for a in range(R):
-        for b in range(Q):
-            i, j = conflict_rows[a], conflict_cols[b]
-            if allowed[i, j]:
-                cost[a, b] = -score[i, j]
-                sub[a, b] = True
+    rows, cols, conflict_rows, conflict_cols, cost, sub = split_conflicts(score, allowed, row_count, col_count)
     return rows, cols, conflict_rows, conflict_cols, cost, sub, overlap
 
 
