@@ -82,7 +82,7 @@ def gymnast_only(pl: WindowTracklets3D, regrouped: np.ndarray, performance_space
     ``rejoin``: one view continuing its track, :func:`continuing`; a coach's one view stays out).
     Counted in ``regrouped_left_out``; None when nothing is left."""
     m = pl.members
-    mine = member(m.ravel(), regrouped).reshape(m.shape).any(axis=1)
+    mine = member(m, regrouped).any(axis=1)
     if not mine.any():
         return pl
     v = pl.valid

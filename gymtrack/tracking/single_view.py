@@ -36,6 +36,18 @@ def iou_matrix(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return iou_corners(corners(np.asarray(a, dtype=np.float64)), corners(np.asarray(b, dtype=np.float64)))
 
 
+def with_conflicts(r: np.ndarray, c: np.ndarray, crow: np.ndarray, ccol: np.ndarray, cost: np.ndarray,
+                   allowed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The direct matches (r, c) of a frame kernel and the assignment of its conflicting tracks
+    ``crow`` (R,) and boxes ``ccol`` (Q,) (cost (R, Q), ``allowed`` (R, Q)): ``linear_sum_assignment``
+    on the conflicts only, its disallowed pairs dropped. Returns all matched (tracks, boxes)."""
+    if not len(crow):
+        return r, c
+    rr, cc = linear_sum_assignment(cost)
+    keep = allowed[rr, cc]
+    return np.concatenate([r, crow[rr[keep]]]), np.concatenate([c, ccol[cc[keep]]])
+
+
 def assign(score: np.ndarray, allowed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Maximum-total-score one-to-one assignment restricted to ``allowed`` pairs.
 
@@ -136,10 +148,7 @@ class IoUTracker:
         box = np.ascontiguousarray(box, dtype=np.float64)
         tb, tc, tl, ti, cb, r, c, crow, ccol, cost, allowed = iou_frame(
             self.box, self.camera, self.last, self.track_id, int(frame), self.max_age, camera, box, self.iou_threshold)
-        if len(crow):  # conflicts: the assignment, on their tracks and boxes only
-            rr, cc = linear_sum_assignment(cost)
-            keep = allowed[rr, cc]
-            r, c = np.concatenate([r, crow[rr[keep]]]), np.concatenate([c, ccol[cc[keep]]])
+        r, c = with_conflicts(r, c, crow, ccol, cost, allowed)  # the assignment on the conflicts only
         self.box, self.camera, self.last, self.track_id, ids, self.next_id = iou_commit(
             tb, tc, tl, ti, self.next_id, int(frame), camera, cb, r, c)
         return ids

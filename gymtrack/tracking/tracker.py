@@ -333,7 +333,7 @@ class Tracker:
         solo, by_2d = continuation_only(len(cur), tri, floor, plane, self.counts)  # (floor rows: by their 2D tracks)
         own = None
         if plane is not None and len(self._regrouped):  # a regrouped pair only continues a track (.regroup)
-            mine = member(plane.members.ravel(), self._regrouped).reshape(plane.members.shape).any(axis=1)
+            mine = member(plane.members, self._regrouped).any(axis=1)
             solo[len(cur) - len(plane):] |= mine
             if self.method.rejoin:  # its own track: a pair wherever the wrong cluster had put it, one view near it
                 views = (plane.members >= 0).sum(axis=1)

@@ -6,13 +6,14 @@ from __future__ import annotations
 import numpy as np
 
 
-def _nanmedian(a: np.ndarray) -> np.ndarray:
-    """Median over axis 1 ignoring NaN (NaN where all are)."""
-    s = np.sort(a, axis=1)  # (NaN last)
-    n = np.isfinite(a).sum(axis=1, keepdims=True)
-    lo = np.take_along_axis(s, np.maximum(n - 1, 0) // 2, axis=1)
-    med = np.where(n % 2 == 1, lo, (lo + np.take_along_axis(s, np.minimum(n // 2, a.shape[1] - 1), axis=1)) / 2)
-    return np.where(n > 0, med, np.nan)[:, 0]
+def nanmedian(x: np.ndarray, axis: int = 1) -> np.ndarray:
+    """``np.nanmedian(x, axis)`` (NaN where there is no value, without a warning) by one sort
+    (numpy's goes through masked arrays for small inputs)."""
+    s = np.sort(x, axis=axis)  # NaNs last
+    n = (~np.isnan(s)).sum(axis=axis, keepdims=True)
+    lo = np.take_along_axis(s, np.maximum(n - 1, 0) // 2, axis=axis)  # (no values: the NaN at 0)
+    hi = np.take_along_axis(s, n // 2, axis=axis)
+    return np.squeeze((lo + hi) / 2, axis=axis)
 
 
 def _midpoints(Rt, centres, xa, a, xb, b):
@@ -74,8 +75,8 @@ def residuals_numpy(box, observed, members, Kinv, Rt, centres, Pn, pa, pb, max_r
 def steps_numpy(meds, nb, min_sigma):
     """(shift, sigma, base) as the kernel's."""
     base_meds, recent = meds[:, :nb], meds[:, nb:]
-    base = np.stack([_nanmedian(base_meds[..., 0]), _nanmedian(base_meds[..., 1])], axis=1)
-    scatter = 1.4826 * _nanmedian(np.linalg.norm(base_meds - base[:, None], axis=2))
+    base = nanmedian(base_meds, axis=1)
+    scatter = 1.4826 * nanmedian(np.linalg.norm(base_meds - base[:, None], axis=2))
     shift = (recent - base[:, None]).mean(axis=1)
     ready = (np.isfinite(base_meds[..., 0]).sum(1) >= nb - 1) & np.isfinite(shift).all(axis=1)
     return (np.where(ready[:, None], np.nan_to_num(shift), 0.0), np.where(ready, np.maximum(min_sigma, np.nan_to_num(scatter)), np.inf),
@@ -101,13 +102,3 @@ def scan_steps_numpy(meds, n_base, n_recent, min_sigma, cap, shortest=None):
     chi = np.ascontiguousarray(np.minimum(cap, (shift ** 2).sum(axis=2) / sigma ** 2).T).sum(axis=1)  # (M,) per candidate
     k = int(np.argmax(chi))  # (the shortest of equals)
     return shift[:, k], sigma[:, k], scatter[:, k], base[:, k], int(ms[k])
-
-
-def nanmedian(x: np.ndarray, axis: int = 1) -> np.ndarray:
-    """``np.nanmedian(x, axis)`` (NaN where there is no value, without a warning) by one sort
-    (numpy's goes through masked arrays for small inputs)."""
-    s = np.sort(x, axis=axis)  # NaNs last
-    n = (~np.isnan(s)).sum(axis=axis, keepdims=True)
-    lo = np.take_along_axis(s, np.maximum(n - 1, 0) // 2, axis=axis)  # (no values: the NaN at 0)
-    hi = np.take_along_axis(s, n // 2, axis=axis)
-    return np.squeeze((lo + hi) / 2, axis=axis)
