@@ -335,3 +335,57 @@ def test_knocked_routine_tracked_again_from_the_move_with_the_reestimated_camera
         return average_euclidean_distance(t.frame, t.xyz, r.target.frame, r.target.xyz, frames=after).mean
 
     assert aed(res) <= 1.1 * aed(clean)
+
+
+def test_batched_turn_fit_matches_the_per_camera_fit_and_its_bound_holds(sim, monkeypatch):
+    """At every sample of a knocked routine: the turn fit of all cameras at once, each key's median
+    point from the compiled medians, against each camera fitted alone with ``np.median`` (the
+    reference), bit for bit; and the bound that spares the fit, each camera's evidence (the keys'
+    capped squared shifts less its misfit) at most the capped shifts of the keys it is in."""
+    from gymtrack.tracking import drift
+    from gymtrack.tracking.drift_scan import scan_steps
+    from reference.drift import fit_numpy
+
+    compared, orig = [0, 0], drift.DriftMonitor._check
+
+    def check(self):
+        shift, sigma, _, _, m = scan_steps(self.meds, self.n_base, self.n_recent, drift.SIGMA_MIN, drift.CAP)
+        keys = np.flatnonzero(np.isfinite(sigma))
+        if len(keys) and self._named is None:
+            got, chi0 = self._fit(shift, sigma, keys, m)
+            want, chi0_want = fit_numpy(self, shift, sigma, keys, m, drift.CAP, drift.HUBER, drift.ROLL_DEG)
+            assert chi0 == chi0_want
+            z2 = (shift ** 2).sum(axis=1) / sigma ** 2
+            most = self.involves[:, keys] @ np.minimum(drift.CAP, z2[keys])
+            for c, (g, w) in enumerate(zip(got, want)):
+                assert g[0] == w[0] and g[2] == w[2] and (g[1] is None) == (w[1] is None)
+                if g[1] is not None:
+                    assert np.array_equal(g[1], w[1]) and np.array_equal(g[3], w[3])
+                    assert chi0 - g[0] <= most[c] * (1 + 1e-9) + 1e-9
+                    compared[1] += chi0 - g[0] > 1.0  # (a fit that explains something)
+            compared[0] += 1
+        return orig(self)
+
+    monkeypatch.setattr(drift.DriftMonitor, "_check", check)
+    res, _ = _track(sim, knock_camera(sim.detections, sim.rig[3], 3, 300, knock_rotation(1.0, seed=4)), recalibrate=False)
+    assert [e["camera"] for e in res.summary["camera_moved"]] == ["cam3"]
+    assert compared[0] >= 12 and compared[1] >= 20  # (samples judged; cameras' fits explaining something)
+
+
+def test_key_medians_and_the_grouping_match_numpy():
+    """The compiled grouping by key (a counting sort) against ``np.argsort(kind="stable")``, and
+    each key's column medians against ``np.median``, bit for bit (keys with no rows: NaN)."""
+    from gymtrack.tracking._kernels import drift as kernels
+
+    rng = np.random.default_rng(6)
+    for _ in range(200):
+        n_keys, n = int(rng.integers(1, 20)), int(rng.integers(0, 300))
+        key = rng.integers(0, n_keys, n).astype(np.int64)
+        V = np.round(rng.normal(size=(n, int(rng.integers(1, 6)))), int(rng.integers(1, 4)))  # (ties)
+        order, start = kernels._by_key(key, n_keys)
+        assert np.array_equal(order, np.argsort(key, kind="stable"))
+        assert np.array_equal(start, np.r_[0, np.cumsum(np.bincount(key, minlength=n_keys))])
+        got = kernels.key_medians(key, V, n_keys)
+        for k in range(n_keys):
+            want = np.median(V[key == k], axis=0) if (key == k).any() else np.full(V.shape[1], np.nan)
+            assert np.array_equal(got[k], want, equal_nan=True)

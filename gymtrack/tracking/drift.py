@@ -46,7 +46,7 @@ from ..errors import GymtrackWarning
 from ..geometry.camera import Rig
 from ._kernels import drift as kernels
 from .drift_scan import scan_steps
-from .turn_fit import TurnEvidence, degrees as _degrees, fit_rotation, rotation as _rotation, turn_pixels
+from .turn_fit import TurnEvidence, degrees as _degrees, fit_rotation, own_jacobian, rotation as _rotation, turn_pixels
 
 __all__ = ["DriftMonitor", "turn_pixels", "fit_rotation"]
 
@@ -147,6 +147,7 @@ class DriftMonitor:
         # later sample (scatters)): to be reported
         self._named: tuple | None = None
         self._own = [np.flatnonzero(self.key_camera == c) for c in range(C)]  # each camera's own keys
+        self._turns = np.stack([c.R.T @ _SMALL_TURNS @ c.R for c in rig])  # (C, 3, 3, 3): each camera's small turns, world
 
     # ------------------------------------------------------------ per window
     def observe(self, start: int, box: np.ndarray, observed: np.ndarray, members: np.ndarray) -> None:
@@ -184,26 +185,21 @@ class DriftMonitor:
                 ev.add(self.samples[-1], int(self.frames[-2]) + 1, self.turns[c])
         self._check()
 
-    def _steps(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, int]:
-        """Per camera x pair: the shift (2,) of the recent samples' mean residual from the median of
-        the seconds before (radians; 0 where not judged), what it is weighed in and one sample's
-        scatter (inf where not judged), the baseline (2,); the recent samples (:func:`.scan_steps`)."""
-        return scan_steps(self.meds, self.n_base, self.n_recent, SIGMA_MIN, CAP)
-
-    def _jacobians(self, c: int, k: np.ndarray, X: np.ndarray, seen: np.ndarray) -> np.ndarray:
-        """(n, 2, 3) how keys ``k``'s (n,) residuals move as camera ``c`` (involved in each) turns by
-        a small rotation vector (its camera coordinates), at the world points ``X`` (n, 3) they judge
-        and where the judged cameras saw them (normalised ``seen`` (n, 2)). Its own key: the seen
-        point moves; a key whose pair holds it: the pair's point moves (its rays through ``X``
-        re-triangulated) and so does its projection into the judged camera."""
+    def _jacobians(self, c: int | np.ndarray, k: np.ndarray, X: np.ndarray, seen: np.ndarray) -> np.ndarray:
+        """(n, 2, 3) how keys ``k``'s (n,) residuals move as camera ``c`` (one, or (n,): one per key;
+        involved in each) turns by a small rotation vector (its camera coordinates), at the world
+        points ``X`` (n, 3) they judge and where the judged cameras saw them (normalised ``seen``
+        (n, 2)). Its own key: the seen point moves; a key whose pair holds it: the pair's point
+        moves (its rays through ``X`` re-triangulated) and so does its projection into the judged camera."""
+        c = np.broadcast_to(c, k.shape)
         j, p = self.key_camera[k], k % len(self.pairs[0])
         a, b = self.pairs[0][p], self.pairs[1][p]
         ca, cb = self.centres[a], self.centres[b]
         # the camera's ray through X as it is and turned by eps about each of its axes (world), the
         # other's ray as it is; their midpoints (Eq. 3's two-view case) seen from the judged camera
-        R, eps, first = self.rig[c].R, 1e-4, (a == c)[:, None, None]
+        eps, first = 1e-4, (a == c)[:, None, None]
         d = np.repeat((X - np.where(first[:, 0], ca, cb))[:, None], 4, axis=1)  # (n, 4, 3)
-        d[:, 1:] = np.einsum("mij,nj->nmi", R.T @ _SMALL_TURNS @ R, d[:, 0])
+        d[:, 1:] = np.einsum("nmij,nj->nmi", self._turns[c], d[:, 0])
         other = np.broadcast_to((X - np.where(first[:, 0], cb, ca))[:, None], d.shape)
         da, db = np.where(first, d, other), np.where(first, other, d)
         w = (ca - cb)[:, None]
@@ -215,9 +211,7 @@ class DriftMonitor:
             q = np.einsum("nmk,nik->nmi", P, self.Pn[j, :, :3]) + self.Pn[j, None, :, 3]
             seen_j = q[..., :2] / q[..., 2:]
         J = -(seen_j[:, 1:] - seen_j[:, :1]).transpose(0, 2, 1) / eps
-        x, y = seen[:, 0], seen[:, 1]
-        own = np.stack([np.stack([-x * y, 1 + x * x, -y], 1), np.stack([-(1 + y * y), x * y, x], 1)], 1)
-        return np.where((j == c)[:, None, None], own, J)
+        return np.where((j == c)[:, None, None], own_jacobian(seen), J)
 
     def _fit(self, shift: np.ndarray, sigma: np.ndarray, keys: np.ndarray, recent: int) -> list:
         """Per camera: (misfit, turn (3,), own, pred) -- the rotation of that camera alone that best
@@ -225,34 +219,33 @@ class DriftMonitor:
         leaves unexplained (each key's share capped), its own keys' smallest shift (scatters), and
         the shift (Nk, 2) it predicts for every key (0 for the keys it is not in); ``recent``: the
         samples the shifts are of."""
-        rep = {}  # each judged key's median point and where it was seen, over the recent samples
-        for k in keys:
-            got = [(q[1][q[0][k]:q[0][k + 1]], q[2][q[0][k]:q[0][k + 1]]) for q in self.samples[-recent:] if q is not None]
-            X, S = np.concatenate([g[0] for g in got]), np.concatenate([g[1] for g in got])
-            if len(X):
-                rep[k] = (np.median(X, axis=0), np.median(S, axis=0))
-        keys = np.array([k for k in keys if k in rep], np.int64)
-        pts, seen = (np.array([rep[k][q] for k in keys]).reshape(-1, 3 - q) for q in (0, 1))
+        got = [q for q in self.samples[-recent:] if q is not None] or [(np.zeros(len(sigma) + 1, np.int64), np.zeros((0, 3)), np.zeros((0, 2)))]
+        rep = kernels.key_medians(np.concatenate([np.repeat(np.arange(len(sigma)), np.diff(q[0])) for q in got]),
+                                  np.concatenate([np.c_[q[1], q[2]] for q in got]), len(sigma))  # (Nk, 5) median point, where seen
+        keys = keys[np.isfinite(rep[keys, 0])]
+        pts, seen = rep[keys, :3], rep[keys, 3:]
         z = shift[keys] / sigma[keys, None]  # (n, 2)
         prior = np.diag([1e-6, 1e-6, 1 / np.radians(ROLL_DEG) ** 2])
+        inv = self.involves[:, keys]  # (C, n): every camera with every key it is in, all fitted at once
+        cam, row = np.nonzero(inv)
+        A = np.zeros((self.C, len(keys), 2, 3))
+        A[cam, row] = self._jacobians(cam, keys[row], pts[row], seen[row]) / sigma[keys[row], None, None]
+        weight = inv.astype(float)
+        for _ in range(4):  # least squares, then Huber's reweighting
+            w = np.linalg.solve(np.einsum("cn,cnji,cnjk->cik", weight, A, A) + prior,
+                                np.einsum("cn,cnji,nj->ci", weight, A, z)[..., None])[..., 0]
+            miss = np.linalg.norm(z - (A @ w[:, None, :, None])[..., 0], axis=2)
+            weight = inv * np.minimum(1.0, HUBER / np.maximum(miss, 1e-12))
+        misfit = np.minimum(CAP, miss ** 2).sum(axis=1)
         out = []
         for c in range(self.C):
-            inv = self.involves[c, keys]
-            own = inv & (self.key_camera[keys] == c)
+            own = inv[c] & (self.key_camera[keys] == c)
             if not own.any():
                 out.append((np.inf, None, 0.0, None))
                 continue
-            A = np.zeros((len(keys), 2, 3))
-            i = np.flatnonzero(inv)
-            A[i] = self._jacobians(c, keys[i], pts[i], seen[i]) / sigma[keys[i], None, None]
-            weight = inv.astype(float)
-            for _ in range(4):  # least squares, then Huber's reweighting
-                w = np.linalg.solve(np.einsum("n,nji,njk->ik", weight, A, A) + prior, np.einsum("n,nji,nj->i", weight, A, z))
-                miss = np.linalg.norm(z - A @ w, axis=1)
-                weight = inv * np.minimum(1.0, HUBER / np.maximum(miss, 1e-12))
             pred = np.zeros((len(sigma), 2))  # (radians) each key's shift that the turn predicts
-            pred[keys] = (A @ w) * sigma[keys, None]
-            out.append((float(np.minimum(CAP, miss ** 2).sum()), w, float(np.linalg.norm(z[own], axis=1).min()), pred))
+            pred[keys] = (A[c] @ w[c]) * sigma[keys, None]
+            out.append((float(misfit[c]), w[c], float(np.linalg.norm(z[own], axis=1).min()), pred))
         return out, float(np.minimum(CAP, (z ** 2).sum(axis=1)).sum())
 
     def _check(self) -> None:
@@ -261,15 +254,18 @@ class DriftMonitor:
         camera's; named, then reported once its turn held (:meth:`_confirm`)."""
         if self._named is not None:
             return self._confirm()
-        shift, sigma, scatter, base, m = self._steps()
+        shift, sigma, scatter, base, m = scan_steps(self.meds, self.n_base, self.n_recent, SIGMA_MIN, CAP)  # (per key)
         ready = np.isfinite(sigma)
         z2 = np.where(ready, (shift ** 2).sum(axis=1) / sigma ** 2, 0.0)
         chi0 = np.minimum(CAP, z2).sum()
         if not (z2 > GATE ** 2).any() or chi0 < EVIDENCE_HELD:
             return  # (the usual sample: nothing moved, or too little for any camera's turn to explain)
-        own_moved = [(z2[own[ready[own]]] >= OWN_HELD ** 2).all() for own in self._own if ready[own].any()]
-        if chi0 < EVIDENCE and not any(own_moved):
-            return  # (neither rule can pass: the fit would be wasted)
+        # a camera's turn explains at most the keys it is in (the others' misfit is their own z2): where
+        # that bound passes neither rule for any camera, the fit would be wasted (with a margin for rounding)
+        most = (self.involves @ np.minimum(CAP, z2)) * (1 + 1e-9)  # (C,)
+        own_moved = np.array([ready[own].any() and bool((z2[own[ready[own]]] >= OWN_HELD ** 2).all()) for own in self._own])
+        if not ((most >= EVIDENCE) | (most >= EVIDENCE_HELD) & own_moved).any():
+            return
         fits, chi0 = self._fit(shift, sigma, np.flatnonzero(ready), m)
         misfit = np.array([f[0] for f in fits])
         c = int(np.argmin(misfit))

@@ -1,5 +1,5 @@
 """Numpy reference of the venue check's kernels (gymtrack/tracking/_kernels/drift.py):
-tracking.drift's residuals and steps before they were compiled."""
+tracking.drift's residuals and steps before they were compiled, and its turn fit before it was batched."""
 
 from __future__ import annotations
 
@@ -102,3 +102,37 @@ def scan_steps_numpy(meds, n_base, n_recent, min_sigma, cap, shortest=None):
     chi = np.ascontiguousarray(np.minimum(cap, (shift ** 2).sum(axis=2) / sigma ** 2).T).sum(axis=1)  # (M,) per candidate
     k = int(np.argmax(chi))  # (the shortest of equals)
     return shift[:, k], sigma[:, k], scatter[:, k], base[:, k], int(ms[k])
+
+
+def fit_numpy(mon, shift, sigma, keys, recent, cap, huber, roll_deg):
+    """``DriftMonitor._fit`` before it was batched: each key's median point by ``np.median`` over
+    its rows of the recent samples, then each camera's turn fitted alone (robust least squares)."""
+    rep = {}
+    for k in keys:
+        got = [(q[1][q[0][k]:q[0][k + 1]], q[2][q[0][k]:q[0][k + 1]]) for q in mon.samples[-recent:] if q is not None]
+        X, S = np.concatenate([g[0] for g in got]), np.concatenate([g[1] for g in got])
+        if len(X):
+            rep[k] = (np.median(X, axis=0), np.median(S, axis=0))
+    keys = np.array([k for k in keys if k in rep], np.int64)
+    pts, seen = (np.array([rep[k][q] for k in keys]).reshape(-1, 3 - q) for q in (0, 1))
+    z = shift[keys] / sigma[keys, None]
+    prior = np.diag([1e-6, 1e-6, 1 / np.radians(roll_deg) ** 2])
+    out = []
+    for c in range(mon.C):
+        inv = mon.involves[c, keys]
+        own = inv & (mon.key_camera[keys] == c)
+        if not own.any():
+            out.append((np.inf, None, 0.0, None))
+            continue
+        A = np.zeros((len(keys), 2, 3))
+        i = np.flatnonzero(inv)
+        A[i] = mon._jacobians(c, keys[i], pts[i], seen[i]) / sigma[keys[i], None, None]
+        weight = inv.astype(float)
+        for _ in range(4):
+            w = np.linalg.solve(np.einsum("n,nji,njk->ik", weight, A, A) + prior, np.einsum("n,nji,nj->i", weight, A, z))
+            miss = np.linalg.norm(z - A @ w, axis=1)
+            weight = inv * np.minimum(1.0, huber / np.maximum(miss, 1e-12))
+        pred = np.zeros((len(sigma), 2))
+        pred[keys] = (A @ w) * sigma[keys, None]
+        out.append((float(np.minimum(cap, miss ** 2).sum()), w, float(np.linalg.norm(z[own], axis=1).min()), pred))
+    return out, float(np.minimum(cap, (z ** 2).sum(axis=1)).sum())

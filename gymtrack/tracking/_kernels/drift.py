@@ -112,28 +112,65 @@ def medians(key, R, X, S, n_keys, min_points):
     """The rows of :func:`residuals` (of one or more windows) grouped by key -> med (n_keys, 2) each
     key's median residual (NaN with fewer than ``min_points`` rows), start (n_keys + 1,) offsets of
     each key's rows in X (n, 3) and S (n, 2), their order kept within a key."""
-    order = np.argsort(key, kind="mergesort")
+    order, start = _by_key(key, n_keys)
+    med = np.full((n_keys, 2), np.nan)
+    buf = np.empty(len(key))
+    for k in range(n_keys):
+        n = start[k + 1] - start[k]
+        if n >= min_points:
+            for q in range(2):
+                for i in range(n):
+                    buf[i] = R[order[start[k] + i], q]
+                med[k, q] = np.median(buf[:n])
+    return med, start, X[order], S[order]
+
+
+@njit(cache=True)
+def _by_key(key, n_keys):
+    """Rows (n,) of keys ``0 .. n_keys - 1`` -> order (n,) grouping them by key, their order kept
+    within a key (a counting sort: numpy's stable argsort), start (n_keys + 1,) each key's offset."""
     start = np.zeros(n_keys + 1, np.int64)
     for j in range(len(key)):
         start[key[j] + 1] += 1
     for k in range(n_keys):
         start[k + 1] += start[k]
-    Rs = R[order]
-    med = np.full((n_keys, 2), np.nan)
-    for k in range(n_keys):
-        if start[k + 1] - start[k] >= min_points:
-            med[k, 0] = np.median(Rs[start[k]:start[k + 1], 0])
-            med[k, 1] = np.median(Rs[start[k]:start[k + 1], 1])
-    return med, start, X[order], S[order]
+    order, at = np.empty(len(key), np.int64), start[:-1].copy()
+    for j in range(len(key)):
+        order[at[key[j]]] = j
+        at[key[j]] += 1
+    return order, start
 
 
 @njit(cache=True, inline="always")
 def _median_of(buf, n):
-    """The median of ``buf[:n]`` (sorted in place; NaN when n = 0): numpy's, the two middle values' mean."""
+    """The median of ``buf[:n]`` (sorted in place, by insertion: the scan's ten-odd samples; NaN
+    when n = 0): numpy's, the two middle values' mean."""
     if n == 0:
         return np.nan
-    s = np.sort(buf[:n])
-    return (s[(n - 1) // 2] + s[n // 2]) / 2
+    for i in range(1, n):
+        v, j = buf[i], i - 1
+        while j >= 0 and buf[j] > v:
+            buf[j + 1] = buf[j]
+            j -= 1
+        buf[j + 1] = v
+    return (buf[(n - 1) // 2] + buf[n // 2]) / 2
+
+
+@njit(cache=True, error_model="numpy")
+def key_medians(key, V, n_keys):
+    """Rows (n,) of keys ``0 .. n_keys - 1`` with values V (n, d) -> (n_keys, d) each key's
+    column medians (numpy's; NaN where a key has no rows)."""
+    order, start = _by_key(key, n_keys)
+    out = np.full((n_keys, V.shape[1]), np.nan)
+    buf = np.empty(len(key))
+    for k in range(n_keys):
+        n = start[k + 1] - start[k]
+        if n:
+            for q in range(V.shape[1]):
+                for i in range(n):
+                    buf[i] = V[order[start[k] + i], q]
+                out[k, q] = np.median(buf[:n])  # (quickselect: the same two middle values' mean)
+    return out
 
 
 @njit(cache=True, error_model="numpy")
@@ -198,3 +235,4 @@ def warm_up() -> None:
                                 np.eye(3), Pn, pa, pb, 0.05, 1, W - 1)
     medians(key, R, X, S, C * len(pa), 8)
     scan_steps(np.zeros((2, 6, 2)), 3, 2, 1e-5, 16.0, 2)
+    key_medians(key, X, C * len(pa))
