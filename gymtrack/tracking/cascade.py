@@ -52,8 +52,8 @@ def triangulation_stage(t, segs: WindowTracklets, labels: np.ndarray | None, D2:
     else:
         t.counts["segments_dropped_single"] += int(np.count_nonzero(~multi))
     tri = triangulate_clusters(segs, members[multi], t.P)
-    # (the venue check leaves out the boxes the image's edge cuts: their centre is not the person's)
-    t.venue.observe(segs.start, segs.box, segs.observed & ~t.table.cut(segs.det), members[multi])
+    if t.venue.active:
+        t._timed("venue", _watch, t, segs, members[multi])
     tri = tri if fused is None else WindowTracklets3D.concat([tri, fused])
     tested = tri.members if t.method.regroup and D2 is not None else None
     if t.method.ghost_test:  # Eq. 4, then the floor's ghost test; a ghost's segments may go to the floor only
@@ -86,6 +86,12 @@ def drop_outliers(t, tr: WindowTracklets3D) -> WindowTracklets3D:
         t.counts["tracklets_outliers"] += int(bad.sum())
         tr = tr.subset(~bad)
     return tr
+
+
+def _watch(t, segs: WindowTracklets, members: np.ndarray) -> None:
+    """The venue check's share of the window (:mod:`.drift`): the clusters' residuals, leaving out the
+    boxes the image's edge cuts (their centre is not the person's)."""
+    t.venue.observe(segs.start, segs.box, segs.observed & ~t.table.cut(segs.det), members)
 
 
 def plane_stage(t, segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray | None

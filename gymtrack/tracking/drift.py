@@ -93,6 +93,7 @@ def _small_turn(axis: int, eps: float) -> np.ndarray:
 
 
 _SMALL_TURNS = np.stack([_small_turn(i, 1e-4) for i in range(3)])  # (3, 3, 3) the Jacobians' steps
+_PRIOR = np.diag([1e-6, 1e-6, 1 / np.radians(ROLL_DEG) ** 2])  # the turn fit's prior (tilt, pan, roll)
 
 
 class DriftMonitor:
@@ -176,9 +177,9 @@ class DriftMonitor:
         self.samples.append(None)
         if self._rows:  # the sample: the rows of its windows pooled
             key, R, X, S, F = (np.concatenate(a) for a in zip(*self._rows))
-            med, starts, X, S = kernels.medians(key, R, X, S, len(self.meds), MIN_POINTS)
+            med, starts, X, S, F = kernels.medians(key, R, X, S, F, len(self.meds), MIN_POINTS)
             self.meds[:, -1] = med
-            self.samples[-1] = (starts, X, S, F[np.argsort(key, kind="stable")])  # (the rows' frames, as medians orders them)
+            self.samples[-1] = (starts, X, S, F)
             self.history.append((int(self.frames[-1]), med))
             self._rows = []
             for c, ev in self.evidence.items():
@@ -221,31 +222,21 @@ class DriftMonitor:
         samples the shifts are of."""
         got = [q for q in self.samples[-recent:] if q is not None] or [(np.zeros(len(sigma) + 1, np.int64), np.zeros((0, 3)), np.zeros((0, 2)))]
         rep = kernels.key_medians(np.concatenate([np.repeat(np.arange(len(sigma)), np.diff(q[0])) for q in got]),
-                                  np.concatenate([np.c_[q[1], q[2]] for q in got]), len(sigma))  # (Nk, 5) median point, where seen
+                                  np.concatenate([np.concatenate(q[1:3], axis=1) for q in got]), len(sigma))  # (Nk, 5) median point, where seen
         keys = keys[np.isfinite(rep[keys, 0])]
-        pts, seen = rep[keys, :3], rep[keys, 3:]
         z = shift[keys] / sigma[keys, None]  # (n, 2)
-        prior = np.diag([1e-6, 1e-6, 1 / np.radians(ROLL_DEG) ** 2])
-        inv = self.involves[:, keys]  # (C, n): every camera with every key it is in, all fitted at once
+        inv = self.involves[:, keys]  # (C, n): every camera with every key it is in, all fitted in one call
         cam, row = np.nonzero(inv)
         A = np.zeros((self.C, len(keys), 2, 3))
-        A[cam, row] = self._jacobians(cam, keys[row], pts[row], seen[row]) / sigma[keys[row], None, None]
-        weight = inv.astype(float)
-        for _ in range(4):  # least squares, then Huber's reweighting
-            w = np.linalg.solve(np.einsum("cn,cnji,cnjk->cik", weight, A, A) + prior,
-                                np.einsum("cn,cnji,nj->ci", weight, A, z)[..., None])[..., 0]
-            miss = np.linalg.norm(z - (A @ w[:, None, :, None])[..., 0], axis=2)
-            weight = inv * np.minimum(1.0, HUBER / np.maximum(miss, 1e-12))
+        A[cam, row] = self._jacobians(cam, keys[row], rep[keys[row], :3], rep[keys[row], 3:]) / sigma[keys[row], None, None]
+        w, miss = kernels.turn_fits(A, z, inv, _PRIOR, HUBER, 4)
         misfit = np.minimum(CAP, miss ** 2).sum(axis=1)
-        out = []
-        for c in range(self.C):
-            own = inv[c] & (self.key_camera[keys] == c)
-            if not own.any():
-                out.append((np.inf, None, 0.0, None))
-                continue
-            pred = np.zeros((len(sigma), 2))  # (radians) each key's shift that the turn predicts
-            pred[keys] = (A[c] @ w[c]) * sigma[keys, None]
-            out.append((float(misfit[c]), w[c], float(np.linalg.norm(z[own], axis=1).min()), pred))
+        pred = np.zeros((self.C, len(sigma), 2))  # (radians) each key's shift that each camera's turn predicts
+        pred[:, keys] = (A @ w[:, None, :, None])[..., 0] * sigma[keys, None]
+        own = inv & (self.key_camera[keys] == np.arange(self.C)[:, None])
+        size = np.where(own, np.linalg.norm(z, axis=1), np.inf).min(axis=1)  # (its own keys' smallest shift)
+        out = [(float(misfit[c]), w[c], float(size[c]), pred[c]) if own[c].any() else (np.inf, None, 0.0, None)
+               for c in range(self.C)]
         return out, float(np.minimum(CAP, (z ** 2).sum(axis=1)).sum())
 
     def _check(self) -> None:

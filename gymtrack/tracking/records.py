@@ -102,14 +102,16 @@ class BoxTable:
     def lookup(self, det: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(raw box (n, 4), score (n,)) of the detections ``det`` (n,) (row ids still held)."""
         t = self.rows
-        row = np.searchsorted(t["det"], det)
+        row = det - t["det"][0] if len(det) else det  # (the ids held are consecutive: counted on arrival, dropped from the front)
         return t["raw"][row], t["score"][row]
 
     def cut(self, det: np.ndarray) -> np.ndarray:
         """(...) bool: the detections ``det`` (row ids still held; -1 none: False) whose box the image's
         edge cuts (:func:`~.sync.cut_by_border`)."""
         t = self.rows
-        return (det >= 0) & t["cut"][np.minimum(np.searchsorted(t["det"], det), len(t["det"]) - 1)]
+        if not len(t["det"]):
+            return np.zeros(det.shape, bool)
+        return (det >= 0) & t["cut"].take(det - t["det"][0], mode="clip")  # (ids held are consecutive: see lookup)
 
 
 @dataclass(frozen=True, eq=False)

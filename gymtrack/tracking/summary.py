@@ -31,7 +31,7 @@ INGREDIENT_COUNTS: dict[str, tuple[str, ...]] = {
     "regroup": ("segments_regrouped", "regrouped_left_out"), "rejoin": ("links_own",), "reidentify": ("target_reidentifications", "target_frames_taken_over"),
     "reach": ("target_points_out_of_reach",), "chain": ("target_frames_chained",), "lone": ("segments_lone",),
 }
-STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target")
+STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target", "venue")
 
 
 def tracker_summary(t) -> dict:

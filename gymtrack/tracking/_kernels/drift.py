@@ -3,7 +3,8 @@
 :func:`residuals`: one window's residuals -- the point one view pair triangulates (Eq. 3's
 two-view case, midpoint of the rays) projected into each third view that saw it, minus where that
 view saw it -- and the sync regression's sums; :func:`medians`: a sample's rows grouped per
-camera x pair with their medians; :func:`scan_steps`: the change scan of :mod:`..drift_scan`.
+camera x pair with their medians; :func:`scan_steps`: the change scan of :mod:`..drift_scan`; :func:`key_medians` and
+:func:`turn_fits`: the median points and the robust fit of :meth:`..drift.DriftMonitor._fit`.
 One call each instead of some sixty numpy calls and a median per group; the numpy
 code they replace is ``tests/reference/drift.py`` (same residuals up to rounding, same medians).
 """
@@ -108,10 +109,10 @@ def residuals(box, observed, members, Kinv, Rt, centres, Pn, pa, pb, max_residua
 
 
 @njit(cache=True, error_model="numpy")
-def medians(key, R, X, S, n_keys, min_points):
+def medians(key, R, X, S, F, n_keys, min_points):
     """The rows of :func:`residuals` (of one or more windows) grouped by key -> med (n_keys, 2) each
     key's median residual (NaN with fewer than ``min_points`` rows), start (n_keys + 1,) offsets of
-    each key's rows in X (n, 3) and S (n, 2), their order kept within a key."""
+    each key's rows in X (n, 3), S (n, 2) and F (n,) (their frames), their order kept within a key."""
     order, start = _by_key(key, n_keys)
     med = np.full((n_keys, 2), np.nan)
     buf = np.empty(len(key))
@@ -122,7 +123,7 @@ def medians(key, R, X, S, n_keys, min_points):
                 for i in range(n):
                     buf[i] = R[order[start[k] + i], q]
                 med[k, q] = np.median(buf[:n])
-    return med, start, X[order], S[order]
+    return med, start, X[order], S[order], F[order]
 
 
 @njit(cache=True)
@@ -171,6 +172,37 @@ def key_medians(key, V, n_keys):
                     buf[i] = V[order[start[k] + i], q]
                 out[k, q] = np.median(buf[:n])  # (quickselect: the same two middle values' mean)
     return out
+
+
+@njit(cache=True, error_model="numpy")
+def turn_fits(A, z, inv, prior, huber, iterations):
+    """Each camera's turn fitted alone to the keys' shifts: A (C, n, 2, 3) how the keys' shifts (in
+    their scatter) move with camera c's turn (0 for keys it is not in), z (n, 2) the shifts, inv
+    (C, n) the keys each camera is in, prior (3, 3) -> w (C, 3) the turns, miss (C, n) each key's
+    shift left unexplained: least squares, then Huber's reweighting (``iterations`` solves)."""
+    C, n = inv.shape
+    w, miss = np.zeros((C, 3)), np.zeros((C, n))
+    weight, G, b = np.empty(n), np.empty((3, 3)), np.empty(3)
+    for c in range(C):
+        for i in range(n):
+            weight[i] = 1.0 if inv[c, i] else 0.0
+        for _ in range(iterations):
+            G[:], b[:] = prior, 0.0
+            for i in range(n):
+                if weight[i] == 0.0:
+                    continue
+                for j in range(2):
+                    for p in range(3):
+                        b[p] += weight[i] * A[c, i, j, p] * z[i, j]
+                        for q in range(3):
+                            G[p, q] += weight[i] * A[c, i, j, p] * A[c, i, j, q]
+            w[c] = np.linalg.solve(G, b)
+            for i in range(n):
+                r0 = z[i, 0] - (A[c, i, 0, 0] * w[c, 0] + A[c, i, 0, 1] * w[c, 1] + A[c, i, 0, 2] * w[c, 2])
+                r1 = z[i, 1] - (A[c, i, 1, 0] * w[c, 0] + A[c, i, 1, 1] * w[c, 1] + A[c, i, 1, 2] * w[c, 2])
+                miss[c, i] = np.sqrt(r0 * r0 + r1 * r1)
+                weight[i] = min(1.0, huber / max(miss[c, i], 1e-12)) if inv[c, i] else 0.0
+    return w, miss
 
 
 @njit(cache=True, error_model="numpy")
@@ -233,6 +265,7 @@ def warm_up() -> None:
     pa, pb = np.array([0, 0, 1], np.int64), np.array([1, 2, 2], np.int64)
     key, R, X, S, _, _ = residuals(box, np.ones((C, W), np.bool_), np.arange(C, dtype=np.int64).reshape(1, C), eye, eye,
                                 np.eye(3), Pn, pa, pb, 0.05, 1, W - 1)
-    medians(key, R, X, S, C * len(pa), 8)
+    medians(key, R, X, S, np.zeros(len(key), np.int64), C * len(pa), 8)
     scan_steps(np.zeros((2, 6, 2)), 3, 2, 1e-5, 16.0, 2)
     key_medians(key, X, C * len(pa))
+    turn_fits(np.ones((C, 2, 2, 3)), np.ones((2, 2)), np.ones((C, 2), np.bool_), np.eye(3), 2.5, 2)
