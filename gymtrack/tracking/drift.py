@@ -220,9 +220,12 @@ class DriftMonitor:
         leaves unexplained (each key's share capped), its own keys' smallest shift (scatters), and
         the shift (Nk, 2) it predicts for every key (0 for the keys it is not in); ``recent``: the
         samples the shifts are of."""
-        got = [q for q in self.samples[-recent:] if q is not None] or [(np.zeros(len(sigma) + 1, np.int64), np.zeros((0, 3)), np.zeros((0, 2)))]
-        rep = kernels.key_medians(np.concatenate([np.repeat(np.arange(len(sigma)), np.diff(q[0])) for q in got]),
-                                  np.concatenate([np.concatenate(q[1:3], axis=1) for q in got]), len(sigma))  # (Nk, 5) median point, where seen
+        got = [q for q in self.samples[-recent:] if q is not None]  # (each: offsets per key, points, where seen)
+        Nk = len(sigma)
+        rep = np.full((Nk, 5), np.nan)  # each key's median point and where it was seen (NaN: no rows)
+        if got:
+            rep = kernels.key_medians(np.concatenate([np.repeat(np.arange(Nk), np.diff(q[0])) for q in got]),
+                                      np.concatenate([np.concatenate(q[1:3], axis=1) for q in got]), Nk)
         keys = keys[np.isfinite(rep[keys, 0])]
         z = shift[keys] / sigma[keys, None]  # (n, 2)
         inv = self.involves[:, keys]  # (C, n): every camera with every key it is in, all fitted in one call

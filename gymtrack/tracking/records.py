@@ -101,17 +101,21 @@ class BoxTable:
 
     def lookup(self, det: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(raw box (n, 4), score (n,)) of the detections ``det`` (n,) (row ids still held)."""
-        t = self.rows
-        row = det - t["det"][0] if len(det) else det  # (the ids held are consecutive: counted on arrival, dropped from the front)
-        return t["raw"][row], t["score"][row]
+        row = self._row(det)
+        return self.rows["raw"][row], self.rows["score"][row]
 
     def cut(self, det: np.ndarray) -> np.ndarray:
         """(...) bool: the detections ``det`` (row ids still held; -1 none: False) whose box the image's
         edge cuts (:func:`~.sync.cut_by_border`)."""
-        t = self.rows
-        if not len(t["det"]):
+        if not len(self.rows["det"]):
             return np.zeros(det.shape, bool)
-        return (det >= 0) & t["cut"].take(det - t["det"][0], mode="clip")  # (ids held are consecutive: see lookup)
+        return (det >= 0) & self.rows["cut"].take(self._row(det), mode="clip")  # (-1: clipped to a row, masked)
+
+    def _row(self, det: np.ndarray) -> np.ndarray:
+        """The rows of the detections ``det`` (ids still held): the ids held are consecutive,
+        counted on arrival and dropped from the front, so a row is the id less the first's."""
+        held = self.rows["det"]
+        return det - held[0] if len(held) else det
 
 
 @dataclass(frozen=True, eq=False)

@@ -114,16 +114,7 @@ def medians(key, R, X, S, F, n_keys, min_points):
     key's median residual (NaN with fewer than ``min_points`` rows), start (n_keys + 1,) offsets of
     each key's rows in X (n, 3), S (n, 2) and F (n,) (their frames), their order kept within a key."""
     order, start = _by_key(key, n_keys)
-    med = np.full((n_keys, 2), np.nan)
-    buf = np.empty(len(key))
-    for k in range(n_keys):
-        n = start[k + 1] - start[k]
-        if n >= min_points:
-            for q in range(2):
-                for i in range(n):
-                    buf[i] = R[order[start[k] + i], q]
-                med[k, q] = np.median(buf[:n])
-    return med, start, X[order], S[order], F[order]
+    return _group_medians(R, order, start, min_points), start, X[order], S[order], F[order]
 
 
 @njit(cache=True)
@@ -140,6 +131,23 @@ def _by_key(key, n_keys):
         order[at[key[j]]] = j
         at[key[j]] += 1
     return order, start
+
+
+@njit(cache=True)
+def _group_medians(V, order, start, min_points):
+    """Values V (n, d), grouped by :func:`_by_key`'s ``order`` and ``start`` -> (n_keys, d) each
+    group's column medians (numpy's: quickselect, the two middle values' mean; NaN for a group
+    of fewer than ``min_points`` rows)."""
+    out = np.full((len(start) - 1, V.shape[1]), np.nan)
+    buf = np.empty(len(order))
+    for k in range(len(start) - 1):
+        n = start[k + 1] - start[k]
+        if n and n >= min_points:
+            for q in range(V.shape[1]):
+                for i in range(n):
+                    buf[i] = V[order[start[k] + i], q]
+                out[k, q] = np.median(buf[:n])
+    return out
 
 
 @njit(cache=True, inline="always")
@@ -162,16 +170,7 @@ def key_medians(key, V, n_keys):
     """Rows (n,) of keys ``0 .. n_keys - 1`` with values V (n, d) -> (n_keys, d) each key's
     column medians (numpy's; NaN where a key has no rows)."""
     order, start = _by_key(key, n_keys)
-    out = np.full((n_keys, V.shape[1]), np.nan)
-    buf = np.empty(len(key))
-    for k in range(n_keys):
-        n = start[k + 1] - start[k]
-        if n:
-            for q in range(V.shape[1]):
-                for i in range(n):
-                    buf[i] = V[order[start[k] + i], q]
-                out[k, q] = np.median(buf[:n])  # (quickselect: the same two middle values' mean)
-    return out
+    return _group_medians(V, order, start, 1)
 
 
 @njit(cache=True, error_model="numpy")
