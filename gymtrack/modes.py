@@ -101,6 +101,9 @@ class Method:
         previous window goes on to the plane alone and continues its own track, as ``rejoin``'s
         lone view does (:func:`gymtrack.tracking.regroup.target_lone`): the gymnast's one view
         is kept where a coach's is not.
+    regain: while the target's track is lost, a one-view segment whose 2D track was seen but never
+        placed may continue a track alone on the plane when its box holds the target's predicted
+        centre (:mod:`gymtrack.tracking.regain`).
     name: what results and reports call it.
     """
 
@@ -125,6 +128,7 @@ class Method:
     reach: bool = False
     chain: bool = False
     lone: bool = False
+    regain: bool = False
     name: str = "custom"
 
     def __post_init__(self) -> None:
@@ -157,7 +161,7 @@ RECIPES: dict[str, Method] = {
     "cascade+": Method(image_motion=True, outliers_at_mean=True, floor=True, ghost_test=True, fusion=True,
                        keep_older=True, exclusion=True, best_estimates=True, solo_inside=True,
                        refine_plane=True, hold_seconds=0.2, handover=True, ballistic=True, regroup=True,
-                       rejoin=True, reidentify=True, reach=True, chain=True, lone=True, name="cascade+"),
+                       rejoin=True, reidentify=True, reach=True, chain=True, lone=True, regain=True, name="cascade+"),
 }
 MODES: tuple[str, ...] = tuple(RECIPES)
 #: the recipe a Tracker, the offline runners, batch and the command line use unless told

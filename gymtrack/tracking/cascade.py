@@ -22,6 +22,7 @@ import numpy as np
 
 from .floor import drop_floor_ghosts, floor_split
 from .plane_fallback import plane_split
+from .regain import regained_views
 from .reconstruct import cluster_members, fallback_segments, opposite_clusters, triangulate_clusters
 from .regroup import continuing, gymnast_only, pairs_only, regroup, send_alone, target_lone
 from .types import WindowTracklets, WindowTracklets3D
@@ -111,8 +112,14 @@ def plane_stage(t, segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray |
     if not len(to_plane):
         return None, floor
     # Eq. 2's separations, the one-view continuation, Eq. 5-9, Eq. 4, one view only inside S_perf
+    prev_2d = t.linker.prev_2d
+    if t.method.regain:  # the lost target's view, seen but never placed, may continue alone (.regain)
+        back = regained_views(segs, to_plane, prev_2d, t.linker.prev_seen, t.linker.lost.get(t.target.live_track()), t.P)
+        if len(back):
+            t.counts["target_regained_views"] += len(back)
+            prev_2d = np.concatenate([prev_2d, back])
     pl = plane_split(segs, to_plane, D2, t.rig.arrays, t.stage_planes, p, t.association == "oracle",
-                     t.linker.prev_2d, t.linker.prev_seen, t.space, t._solo_space, t.counts,
+                     prev_2d, t.linker.prev_seen, t.space, t._solo_space, t.counts,
                      t.method.outliers_at_mean, t._groups)
     if pl is not None and len(t._regrouped):  # only a gymnast's regrouped pair is kept (.regroup)
         pl = gymnast_only(pl, t._regrouped, t.perf_space, t.scene.target, t.counts,

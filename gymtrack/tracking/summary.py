@@ -30,6 +30,7 @@ INGREDIENT_COUNTS: dict[str, tuple[str, ...]] = {
     "handover": ("target_handovers",), "ballistic": ("ballistic_handovers", "ballistic_points"),
     "regroup": ("segments_regrouped", "regrouped_left_out"), "rejoin": ("links_own",), "reidentify": ("target_reidentifications", "target_frames_taken_over"),
     "reach": ("target_points_out_of_reach",), "chain": ("target_frames_chained",), "lone": ("segments_lone",),
+    "regain": ("target_regained_views",),
 }
 STAGES = ("single_view", "windows", "clustering", "triangulation", "plane", "linking", "finalise", "target", "venue")
 
