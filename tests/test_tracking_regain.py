@@ -29,20 +29,26 @@ def _segments(centres, first):
                            np.where(observed, 0, -1))
 
 
-def test_only_a_refused_view_whose_box_holds_the_prediction_is_regained():
-    """The lost track ended at frame 95 at (0, 0, 10) m moving 0.01 m a frame along x: at frame 102
-    (7 frames on) it projects to (507, 500). Track 10 holds it (regained); 11 is 93 px off (not);
-    12 holds it but was a member (it may continue anyway: not listed); 13 holds it but is new (the
-    same); 14 holds it from frame 104, where the prediction is (509, 500) (regained)."""
-    segs = _segments([(505, 500), (600, 500), (507, 500), (507, 500), (520, 510)], [2, 2, 2, 2, 4])
-    lost = (95, np.array([0.0, 0, 10]), np.array([0.01, 0, 0]))
-    prev_2d, prev_seen = np.array([12]), np.array([10, 11, 12, 14])
-    got = regained_views(segs, np.arange(5), prev_2d, prev_seen, lost, P)
+def test_only_a_refused_view_of_the_lost_track_whose_box_holds_the_prediction_is_regained():
+    """The lost track (views: camera 0) ended at frame 95 at (0, 0, 10) m moving 0.01 m a frame
+    along x: at frame 102 (7 frames on) it projects to (507, 500). Track 10 holds it (regained);
+    11 is 93 px off (not); 12 holds it but was a member (it may continue anyway: not listed); 13
+    holds it but is new (the same); 14 holds it from frame 104, where the prediction is (509, 500)
+    (regained); 15 holds it in camera 1, not a view of the lost track (not)."""
+    segs = _segments([(505, 500), (600, 500), (507, 500), (507, 500), (520, 510), (507, 500)], [2, 2, 2, 2, 4, 2])
+    segs.camera[5] = 1
+    P2 = np.concatenate([P, P])  # camera 1 projects as camera 0 does: only the view rule tells it apart
+    lost = (95, np.array([0.0, 0, 10]), np.array([0.01, 0, 0]), np.array([True, False]))
+    prev_2d, prev_seen = np.array([12]), np.array([10, 11, 12, 14, 15])
+    got = regained_views(segs, np.arange(6), prev_2d, prev_seen, lost, P2)
     assert got.tolist() == [10, 14]
-    assert regained_views(segs, np.array([1, 2, 3]), prev_2d, prev_seen, lost, P).tolist() == []
-    assert regained_views(segs, np.arange(5), prev_2d, prev_seen, None, P).tolist() == []  # target not lost
-    behind = (95, np.array([0.0, 0, -10]), np.zeros(3))  # projects to (500, 500) from behind the camera
-    assert regained_views(_segments([(500, 500)], [0]), np.arange(1), prev_2d, np.array([10]), behind, P).tolist() == []
+    assert regained_views(segs, np.array([1, 2, 3, 5]), prev_2d, prev_seen, lost, P2).tolist() == []
+    both = lost[:3] + (np.array([True, True]),)
+    assert regained_views(segs, np.arange(6), prev_2d, prev_seen, both, P2).tolist() == [10, 14, 15]
+    assert regained_views(segs, np.arange(6), prev_2d, prev_seen, None, P2).tolist() == []  # target not lost
+    behind = (95, np.array([0.0, 0, -10]), np.zeros(3), np.array([True]))  # (500, 500) from behind the camera
+    one = _segments([(500, 500)], [0])
+    assert regained_views(one, np.arange(1), prev_2d, np.array([10]), behind, P).tolist() == []
 
 
 @pytest.fixture(scope="module")

@@ -114,7 +114,8 @@ def plane_stage(t, segs: WindowTracklets, to_plane: np.ndarray, D2: np.ndarray |
     # Eq. 2's separations, the one-view continuation, Eq. 5-9, Eq. 4, one view only inside S_perf
     prev_2d = t.linker.prev_2d
     if t.method.regain:  # the lost target's view, seen but never placed, may continue alone (.regain)
-        back = regained_views(segs, to_plane, prev_2d, t.linker.prev_seen, t.linker.lost.get(t.target.live_track()), t.P)
+        back = regained_views(segs, to_plane, prev_2d, t.linker.prev_seen, t.linker.lost.get(t.target.live_track()),
+                              t.P)
         if len(back):
             t.counts["target_regained_views"] += len(back)
             prev_2d = np.concatenate([prev_2d, back])

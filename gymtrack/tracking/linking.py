@@ -200,8 +200,9 @@ class WindowLinker:
         self.next_track_id = 0
         self.track_last: dict[int, int] = {}  # live track -> last valid frame
         self.ended: dict[int, int] = {}  # ended track -> last frame (the target stage forgets them)
-        # lost tracks (not continued, may still be re-linked): id -> (last frame, last xyz, velocity)
-        self.lost: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
+        # lost tracks (not continued, may still be re-linked): id -> (last frame, last xyz, velocity,
+        # (C,) bool the views of its last tracklet)
+        self.lost: dict[int, tuple[int, np.ndarray, np.ndarray, np.ndarray]] = {}
         # 2D track ids that were members of the previous window's 3D tracklets (single-view continuation)
         self.prev_2d = np.zeros(0, np.int64)
         self.prev_seen = np.zeros(0, np.int64)  # 2D tracks of the previous window's segments
@@ -346,7 +347,7 @@ class WindowLinker:
     def _relink(self, cur: WindowTracklets3D, cols: np.ndarray, ids: np.ndarray) -> None:
         """Lost tracks continued by the tracklets ``cols`` (written into ``ids``)."""
         lost_ids = np.fromiter(self.lost, np.int64, len(self.lost))
-        lf, lx, lv = (np.array(v) for v in zip(*self.lost.values()))
+        lf, lx, lv = (np.array(v) for v in list(zip(*self.lost.values()))[:3])
         r, c = link(relink_distances(lf, lx, lv, cur.xyz[cols], cur.valid[cols], cur.start, self.relink_frames),
                     self.link_3d)
         ids[cols[c]] = lost_ids[r]
@@ -364,7 +365,7 @@ class WindowLinker:
             lf, lx, lv = tracklet_ends(prev.xyz[at], prev.valid[at], prev.start, self.max_speed)
             for k, tid in enumerate(prev.track_id[at].tolist()):
                 self.track_last.pop(tid)
-                self.lost[tid] = (int(lf[k]), lx[k], lv[k])
+                self.lost[tid] = (int(lf[k]), lx[k], lv[k], prev.members[at[k]] >= 0)
         horizon = start + self.window_step - self.relink_frames - 1  # a lost track ending before this is beyond reach
         for tid in [k for k, v in self.lost.items() if v[0] < horizon]:
             self.ended[tid] = self.lost.pop(tid)[0]
