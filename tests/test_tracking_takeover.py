@@ -1,6 +1,6 @@
 """The take-over's look-back (the recipe's ``reidentify``, gymtrack.tracking.identify): when a
-better-seen track takes the target over, the frames just before where it was seen in more views
-than the old target become its own. Hand-worked arrays for :func:`backfill`, the selector and
+better-seen track takes the target over, the frames just before where it had a point seen in at
+least as many views as the old target become its own. Hand-worked arrays for :func:`backfill`, the selector and
 back-fill together, and cascade+ on a simulated rings routine against its ground truth."""
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ def _points(spec, n_frames):
 
 def test_the_run_of_better_seen_frames_before_a_take_over_is_the_new_tracks():
     """Track 1 (the target, 2 views) has a point in every frame; track 2 takes over at frame 20.
-    Track 2 is seen in 2 views at frames 8-11 (not more than track 1), has no point at 13, and 3
+    Track 2 is seen in 2 views at frames 8-11 (as many as track 1), has no point at 13, and 3
     views at 12 and 14-24: the run that ends at the take-over is 14-19 (6 frames; frame 13,
     without a point of track 2, ends it). Frames 12 and before stay track 1's."""
     decision = np.r_[np.ones(20, np.int64), np.full(5, 2)]
@@ -38,14 +38,16 @@ def test_the_run_of_better_seen_frames_before_a_take_over_is_the_new_tracks():
 
 
 def test_the_look_back_stops_at_the_back_fill_reach_and_at_the_old_targets_better_frames():
-    """Reach of 4 frames: only 16-19 can change. A frame where the old target is seen as well as
-    the new one (frame 18) ends the run: only frame 19 changes. A change of target that is not a
+    """Reach of 4 frames: only 16-19 can change. A frame where the old target is seen in more views
+    than the new one (frame 18) ends the run: only frame 19 changes; where it is seen in as many
+    (a tie goes to the track that won), all four change. A change of target that is not a
     take-over (an identification after none) is left to the plain back-fill."""
-    decision = np.r_[np.ones(20, np.int64), np.full(5, 2)]
-    sup1 = {f: 2 for f in range(25)} | {18: 3}
-    index, tid, support = _points({1: sup1, 2: {f: 3 for f in range(25)}}, 25)
-    backfill(decision, index, tid, 4, takeover=(np.array([20]), support, {}))
-    assert decision.tolist() == [1] * 19 + [2] * 6
+    for at_18, changed in ((4, 1), (3, 4)):
+        decision = np.r_[np.ones(20, np.int64), np.full(5, 2)]
+        sup1 = {f: 2 for f in range(25)} | {18: at_18}
+        index, tid, support = _points({1: sup1, 2: {f: 3 for f in range(25)}}, 25)
+        backfill(decision, index, tid, 4, takeover=(np.array([20]), support, {}))
+        assert decision.tolist() == [1] * (20 - changed) + [2] * (5 + changed)
     plain = np.r_[np.full(20, -1), np.full(5, 2)]
     backfill(plain, index, tid, 4, takeover=(np.array([20]), support, {}))  # not a take-over: -1 before
     assert plain.tolist() == [-1] * 16 + [2] * 9  # the plain back-fill's look-back of 4
@@ -104,12 +106,13 @@ def _far_frames(res, sim):
     inside = np.all((sim.centre[0] >= lo) & (sim.centre[0] <= hi), axis=1) & sim.performing
     rows = np.isin(res.target.frame, sim.frames[inside])
     err = np.linalg.norm(res.target.xyz[rows] - sim.centre[0][res.target.frame[rows] - sim.frames[0]], axis=1)
-    return int(np.count_nonzero(err > 0.5))
+    return set(res.target.frame[rows][err > 0.5].tolist())
 
 
 def test_cascade_plus_follows_the_gymnast_sooner_after_a_take_over(rings_lift, monkeypatch):
-    """The tracks are the same with and without the take-over's look-back; the frames it gives
-    back were the target's frames far from the gymnast (at least 80 % of them)."""
+    """The tracks are the same with and without the take-over's look-back; it makes no frame far
+    from the gymnast, and at least 30 near (measured: 34 of the 56 it gives back were far; in
+    the rest the old target, the track beside her, was near her too)."""
     sim = rings_lift
     on = track_detections(sim.rig, sim.scene, sim.detections, mode=RECIPES["cascade+"])
     monkeypatch.setattr(identify, "_take_over", lambda *a, **k: None)
@@ -117,4 +120,5 @@ def test_cascade_plus_follows_the_gymnast_sooner_after_a_take_over(rings_lift, m
     assert np.array_equal(on.tracks.xyz, off.tracks.xyz) and np.array_equal(on.tracks.track_id, off.tracks.track_id)
     given = on.summary["target_frames_taken_over"]
     assert on.summary["target_reidentifications"] >= 1 and given >= 10
-    assert _far_frames(off, sim) - _far_frames(on, sim) >= 0.8 * given
+    far_on, far_off = _far_frames(on, sim), _far_frames(off, sim)
+    assert far_on <= far_off and len(far_off) - len(far_on) >= 30

@@ -19,11 +19,14 @@
   without a target point counts as none). A phantom of association (a plane candidate of one
   view) identified while the gymnast stood on the floor is then not held while the gymnast's
   own track qualifies. It counts as a switch, and the back-fill (below) hands the new target the
-  frames just before where it was seen in more views: the run of them that ends at the
-  take-over, the frames its challenge counted. Whether a point was triangulated or placed on the
-  plane does not count: two views' boxes triangulate whenever their rays meet short of
-  opposite, a wrong pair as readily as the right one, so a phantom of a wrong pair would take
-  the target from a gymnast seen by the same two views as an opposite pair.
+  frames just before where it had a point seen in at least as many views as the target's: the
+  run of them that ends at the take-over. A tie goes to the track that won: at a vault's
+  take-off the run-up track went on with a coach at the board while her new track flew on, both
+  seen by one view, and the take-over takes back 16 frames instead of 8. Whether a point was
+  triangulated or placed on the plane does not count: two views' boxes triangulate whenever
+  their rays meet short of opposite, a wrong pair as readily as the right one, so a phantom of
+  a wrong pair would take the target from a gymnast seen by the same two views as an opposite
+  pair.
 * :class:`TargetBackfill` -- beyond the paper: Eq. 13 decides from the last Delta frames, so
   when it identifies a track, the frames it looked at are the target's too. The decisions wait
   ``backfill_frames`` frames; an identification hands its track the frames of that look-back
@@ -272,9 +275,9 @@ def backfill(decision: np.ndarray, index: np.ndarray, track_id: np.ndarray, fram
     the look-back goes on to the tracks ``T`` continues (counted in ``target_frames_chained``).
     ``takeover``: the recipe's ``reidentify``, (indices where a challenger took the target over,
     support (n,) of each point (:func:`point_support`), counts): the frames just before a
-    take-over where the new track was seen in more views than the old target become the new
-    track's -- the run of them that ends at the take-over, the frames its challenge counted
-    (counted in ``target_frames_taken_over``).
+    take-over where the new track had a point seen in at least as many views as the old target
+    become the new track's -- the run of them that ends at the take-over (counted in
+    ``target_frames_taken_over``).
     Returns ``decision``.
     """
     if frames <= 0 or len(decision) <= since:
@@ -316,7 +319,7 @@ def _take_over(decision: np.ndarray, index: np.ndarray, track_id: np.ndarray, fr
         for t, s in ((old, s_old), (new, s_new)):
             m = (track_id == t) & (index >= lo) & (index < k)
             np.maximum.at(s, index[m] - lo, support[m])
-        beaten = (decision[lo:k] == old) & (s_new > s_old)
+        beaten = (decision[lo:k] == old) & (s_new >= s_old) & (s_new > 0)
         held = np.flatnonzero(~beaten)
         first = lo + (int(held[-1]) + 1 if len(held) else 0)
         decision[first:k] = new
