@@ -40,15 +40,16 @@ def _near(sim, res):
     return int(np.count_nonzero(err < 0.5)), len(frames)
 
 
-@pytest.mark.parametrize("apparatus, seed, least", [
-    # suite routines (seed 0): rings r3, beam r0 (measured: 321 -> 386 of 390, 461 -> 513 of 513)
-    ("still_rings", 2997468713, 380), ("balance_beam", 2968811710, 505)])
-def test_lone_keeps_the_gymnast_whose_clusters_were_dropped(apparatus, seed, least):
+@pytest.mark.parametrize("apparatus, seed, least, gain", [
+    # suite routines (seed 0): rings r3, beam r0 (measured: 321 -> 386 of 390, 482 -> 513 of 513).
+    # ``regain`` (gymtrack.tracking.regain) is off in both runs: on the rings it regains the
+    # gymnast from her one view too (376 of 390 without lone), so it would hide what lone does
+    ("still_rings", 2997468713, 380, 50), ("balance_beam", 2968811710, 505, 25)])
+def test_lone_keeps_the_gymnast_whose_clusters_were_dropped(apparatus, seed, least, gain):
     sim = simulate_routine(apparatus, n_cam=2, seed=seed, seconds=25)
-    plus = RECIPES["cascade+"]
-    on, off = (track_detections(sim.rig, sim.scene, sim.detections, mode=m)
-               for m in (plus if plus.lone else plus.adding("lone"), plus.without("lone") if plus.lone else plus))
+    plus = RECIPES["cascade+"].without("regain")
+    on, off = (track_detections(sim.rig, sim.scene, sim.detections, mode=m) for m in (plus, plus.without("lone")))
     assert on.summary["segments_lone"] > 0 and "segments_lone" not in off.summary
     (n_on, n), (n_off, _) = _near(sim, on), _near(sim, off)
-    assert n_on >= least and n_on >= n_off + 40, (n_on, n_off, n)
+    assert n_on >= least and n_on >= n_off + gain, (n_on, n_off, n)
 

@@ -243,10 +243,15 @@ def vault_phantom():
 
 def test_reach_gives_up_a_phantom_in_the_air_and_finds_the_gymnast(vault_phantom):
     rig, scene, det, sim = vault_phantom
-    plus = RECIPES["cascade+"]
+    # (``reidentify`` off in both runs: without reach its take-over now hands the gymnast the
+    # target and takes back the 46 frames before it, so cascade+ without reach is near her too)
+    plus = RECIPES["cascade+"].without("reidentify")
     on, off = (track_detections(rig, scene, det, mode=m) for m in (plus, plus.without("reach")))
-    # only the target changes
-    assert np.array_equal(on.tracks.track_id, off.tracks.track_id) and np.array_equal(on.tracks.xyz, off.tracks.xyz)
+    # only the target changes -- and through it the tracks of the ingredients that follow the
+    # target (``lone``, ``regain``): without them the tracks are the same
+    alone = plus.without("lone").without("regain")
+    a, b = (track_detections(rig, scene, det, mode=m) for m in (alone, alone.without("reach")))
+    assert np.array_equal(a.tracks.track_id, b.tracks.track_id) and np.array_equal(a.tracks.xyz, b.tracks.xyz)
     assert on.summary["target_points_out_of_reach"] > 0 and "target_points_out_of_reach" not in off.summary
     inside = np.all((sim.centre[0] >= np.array(sim.scene.performance_space[:3]))
                     & (sim.centre[0] <= np.array(sim.scene.performance_space[3:])), axis=1)
@@ -257,4 +262,4 @@ def test_reach_gives_up_a_phantom_in_the_air_and_finds_the_gymnast(vault_phantom
         err = np.linalg.norm(res.target.xyz[rows] - sim.centre[0][res.target.frame[rows] - sim.frames[0]], axis=1)
         return int(np.count_nonzero(err < 0.5))
 
-    assert near(on) >= 0.9 * len(perf) and near(on) - near(off) >= 0.2 * len(perf)  # (88 and 66 of 90)
+    assert near(on) >= 0.9 * len(perf) and near(on) - near(off) >= 0.2 * len(perf)  # (90 and 2 of 90)
