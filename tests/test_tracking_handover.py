@@ -47,7 +47,7 @@ def test_a_newborn_whose_early_points_come_near_takes_the_target():
     frame, tid, xyz = _rows({5: (np.arange(10), 0.0), 6: (f6, 1.3)})
     h = TargetHandover(30, {"target_handovers": 0})
     h.step(frame, tid, xyz, {5: 9}, _selector())
-    assert h.live == {} and len(h.early[6][0]) == 15  # (its first 15 frames kept)
+    assert h.live == {} and len(h.first[6][0]) == 15  # (its first 15 frames kept)
 
 
 @pytest.fixture(scope="module")

@@ -26,8 +26,8 @@ frames (within :data:`RADIUS`), among the tracks born up to the prediction's rea
 (or until the reach passes) the target is held (its track is not reported ended to the
 selector), and the held frames get the predicted points. Counted in ``ballistic_handovers``.
 
-State (bounded): the first and last points of the tracks seen in the last ``2 Delta`` frames,
-the points of the first ``Delta / 2`` frames of those born in that time,
+State (bounded): the points of the first ``Delta / 2`` frames of the tracks born in the last
+``2 Delta`` frames, the last points of the tracks seen in that time,
 the aliases of tracks seen in that time, the target track's last point.
 """
 
@@ -37,7 +37,7 @@ import numpy as np
 
 __all__ = ["RADIUS", "TargetHandover"]
 
-RADIUS = 1.0  #: metres: the new track's first point from the target track's last one, at most
+RADIUS = 1.0  #: metres: one of the new track's early points from the target track's last one, at most
 
 
 class TargetHandover:
@@ -57,15 +57,14 @@ class TargetHandover:
         self.delta, self.half, self.radius, self.counts = int(delta), max(1, int(delta) // 2), float(radius), counts
         self.alias: dict[int, tuple[int, int]] = {}  # track -> (root, from frame: its rows after this carry root)
         self.live: dict[int, int] = {}  # root -> the track carrying it now
-        self.first: dict[int, tuple[int, np.ndarray]] = {}  # track -> (first frame, first point), recent births
-        # track -> (frames, points) of its first Delta / 2 frames, recent births
-        self.early: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        # track -> (frames (n,), points (n, 3)) of its first Delta / 2 frames, recent births
+        self.first: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self.last: dict[int, tuple[int, np.ndarray]] = {}  # root -> (frame, point) of its live track's last row
         self.ends: dict[int, tuple[int, np.ndarray]] = {}  # track -> (frame, point) of its last row, recent tracks
         self.seen_max = -1
 
     def __len__(self) -> int:
-        return len(self.alias) + len(self.first) + len(self.last) + len(self.ends) + len(self.pending) + len(self.early)
+        return len(self.alias) + len(self.first) + len(self.last) + len(self.ends) + len(self.pending)
 
     def _rename(self, frame: np.ndarray, tid: np.ndarray) -> np.ndarray:
         sel = tid.copy()
@@ -80,10 +79,9 @@ class TargetHandover:
             new = np.flatnonzero(tid > self.seen_max)
             ids, at = np.unique(tid[new], return_index=True)
             for k, i in zip(ids.tolist(), new[at].tolist()):
-                self.first[k] = (int(frame[i]), xyz[i].copy())
-                self.early[k] = (np.zeros(0, np.int64), np.zeros((0, 3)))
+                self.first[k] = (frame[i:i + 1].copy(), xyz[i:i + 1].copy())
             self.seen_max = int(ids[-1])
-        if len(tid) and self.early:  # the points of the young tracks' first Delta / 2 frames
+        if len(tid) and self.first:  # the points of the young tracks' first Delta / 2 frames
             self._keep_early(frame, tid, xyz)
         if len(tid):  # every track's last point (a target identified after its track ended needs it)
             ids, at = np.unique(tid[::-1], return_index=True)
@@ -116,16 +114,14 @@ class TargetHandover:
         return sel, ended_sel
 
     def _keep_early(self, frame: np.ndarray, tid: np.ndarray, xyz: np.ndarray) -> None:
-        """Append the rows (n,) of tracks born less than Delta / 2 frames before them to ``early``;
-        a track past that age is no longer collected."""
-        for k in list(self.early):
-            s = self.first[k][0]
-            if int(frame[0]) >= s + self.half:
+        """Append to ``first`` the rows (n,) of tracks born less than Delta / 2 frames before them
+        (after the rows kept already); a track past that age is no longer collected."""
+        for k, (f, p) in list(self.first.items()):
+            if int(frame[0]) >= f[0] + self.half:
                 continue
-            m = (tid == k) & (frame < s + self.half)
+            m = (tid == k) & (frame > f[-1]) & (frame < f[0] + self.half)
             if m.any():
-                f, p = self.early[k]
-                self.early[k] = (np.r_[f, frame[m]], np.r_[p, xyz[m]])
+                self.first[k] = (np.r_[f, frame[m]], np.r_[p, xyz[m]])
 
     def flying(self, selector) -> int:
         """The track whose flight the target stage predicts: the live track of the target, or of a
@@ -143,12 +139,9 @@ class TargetHandover:
             return False
         best, best_d = -1, self.radius
         hi = end + self.half if flight is None else max(end + self.half, flight.reach())
-        for k, (s, p) in self.first.items():
-            if k == live or k in self.alias or k == root or not (end - self.half <= s <= hi):
+        for k, (f, q) in self.first.items():
+            if k == live or k in self.alias or k == root or not (end - self.half <= f[0] <= hi):
                 continue
-            f, q = self.early.get(k, (np.array([s]), p[None]))
-            if not len(f):
-                f, q = np.array([s]), p[None]
             # the nearest of its first Delta / 2 frames: a first point off by a wrong cluster (a
             # third view's coach) still hands over once the track is on the gymnast
             ref = p_last[None] if flight is None else flight.predict(f)
@@ -186,8 +179,7 @@ class TargetHandover:
         if now is None:
             return
         old = now - 2 * self.delta
-        self.first = {k: v for k, v in self.first.items() if v[0] >= old}
-        self.early = {k: v for k, v in self.early.items() if k in self.first}
+        self.first = {k: v for k, v in self.first.items() if v[0][0] >= old}
         if len(self.ends) > 2 * len(self.first) + 16:  # (rarely: the dict is rebuilt)
             self.ends = {k: v for k, v in self.ends.items() if v[0] >= old}
         for r in [r for r, (f, _) in self.last.items() if f < old]:
